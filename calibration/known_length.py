@@ -1,0 +1,143 @@
+"""Scale from a known marker-to-marker length, and the mechanism's plane frame.
+
+The simplest calibration, as in the thesis ("calibrating pixel width and
+height to real units"): one scale for the whole image, from a distance that
+is constant in the mechanism (by default the frame A–C). The plane frame puts
+A at the origin and C on +x (median positions over the run), with y 90°
+counter-clockwise in the plane, which for a camera looking down is *up* in
+the image.
+
+This is only right for a camera square to the plane with a lens that does
+not bend lines; the spread of the known length over the run is reported as
+the quality figure, because tilt and distortion show up as a length that
+changes with position.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from cranktrack.errors import CranktrackError
+
+#: Relative spread (std / median) of the known length above which we warn.
+SPREAD_WARNING = 0.01
+
+
+@dataclass(frozen=True)
+class PlaneCalibration:
+    """Pixels → mechanism-plane millimetres by a similarity transform.
+
+    ``mm_per_px`` is the scale, ``origin_px`` the image point of the plane
+    origin, ``x_axis_deg`` the image direction of the plane's +x axis
+    (degrees, counter-clockwise with image y pointing up), ``image_size``
+    (width, height) px the images it is valid for, ``quality`` a dict of
+    figures and ``warnings`` sentences for the user.
+    """
+
+    method: str
+    mm_per_px: float
+    origin_px: tuple[float, float]
+    x_axis_deg: float
+    image_size: tuple[int, int]
+    quality: dict = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
+
+    def to_plane(self, x_px: np.ndarray, y_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Image points (px) to plane points (mm)."""
+        dx = (np.asarray(x_px, float) - self.origin_px[0]) * self.mm_per_px
+        dy_up = -(np.asarray(y_px, float) - self.origin_px[1]) * self.mm_per_px
+        a = np.radians(self.x_axis_deg)
+        return dx * np.cos(a) + dy_up * np.sin(a), -dx * np.sin(a) + dy_up * np.cos(a)
+
+
+def parse_known_length(text: str) -> tuple[str, str, float]:
+    """Parse ``"A-C=160.8"`` into ``("A", "C", 160.8)``."""
+    try:
+        pair, value = text.split("=")
+        a, b = (s.strip() for s in pair.split("-"))
+        length = float(value)
+    except ValueError:
+        raise CranktrackError(
+            f"--known-length {text!r} is not of the form NAME-NAME=MILLIMETRES, "
+            "e.g. A-C=160.8") from None
+    if not a or not b or a == b or not length > 0:
+        raise CranktrackError(
+            f"--known-length {text!r} needs two different markers and a positive length")
+    return a, b, length
+
+
+def _median_point(tracks: pd.DataFrame, name: str) -> tuple[float, float]:
+    ok = tracks[f"{name}_ok"].to_numpy(bool)
+    return (float(np.median(tracks.loc[ok, f"{name}_x_px"])),
+            float(np.median(tracks.loc[ok, f"{name}_y_px"])))
+
+
+def calibrate_known_length(
+    tracks: pd.DataFrame,
+    a: str,
+    b: str,
+    length_mm: float,
+    image_size: tuple[int, int],
+    origin: str = "A",
+    axis_to: str = "C",
+) -> PlaneCalibration:
+    """Scale from the known distance between markers ``a`` and ``b``.
+
+    Uses every frame where both are found; the scale comes from the median
+    pixel distance. The plane frame has ``origin`` at (0, 0) and ``axis_to``
+    on +x.
+
+    Raises
+    ------
+    CranktrackError
+        A named marker is not in the table or never found together with the other.
+    """
+    for name in {a, b, origin, axis_to}:
+        if f"{name}_ok" not in tracks:
+            raise CranktrackError(f"marker {name} is not tracked, so it cannot be used for "
+                                  "calibration")
+    both = tracks[f"{a}_ok"].to_numpy(bool) & tracks[f"{b}_ok"].to_numpy(bool)
+    if not both.any():
+        raise CranktrackError(
+            f"markers {a} and {b} are never found in the same frame, so their known length "
+            "cannot set the scale")
+    d_px = np.hypot(tracks.loc[both, f"{a}_x_px"] - tracks.loc[both, f"{b}_x_px"],
+                    tracks.loc[both, f"{a}_y_px"] - tracks.loc[both, f"{b}_y_px"]).to_numpy()
+    med = float(np.median(d_px))
+    if not med > 0:
+        raise CranktrackError(f"markers {a} and {b} sit on the same pixel; cannot set a scale")
+    mm_per_px = length_mm / med
+    d_mm = d_px * mm_per_px
+    spread = float(np.std(d_mm))
+    quality = {
+        "known_length": f"{a}-{b}",
+        "known_length_mm": length_mm,
+        "frames_used": int(both.sum()),
+        "length_std_mm": spread,
+        "length_range_mm": float(d_mm.max() - d_mm.min()),
+        "length_relative_spread": spread / length_mm,
+    }
+    warnings = []
+    if spread / length_mm > SPREAD_WARNING:
+        warnings.append(
+            f"the {a}-{b} distance varies by {100 * spread / length_mm:.1f}% (1σ) over the run; "
+            "a rigid length should not, so the camera may be tilted or the lens distorting")
+    o = _median_point(tracks, origin)
+    c = _median_point(tracks, axis_to)
+    axis = float(np.degrees(np.arctan2(-(c[1] - o[1]), c[0] - o[0])))
+    return PlaneCalibration("known-length", mm_per_px, o, axis, tuple(image_size), quality,
+                            tuple(warnings))
+
+
+def add_plane_coordinates(tracks: pd.DataFrame, cal: PlaneCalibration,
+                          markers: tuple[str, ...]) -> pd.DataFrame:
+    """A copy of ``tracks`` with ``_x_mm``, ``_y_mm`` and ``_sigma_mm`` per marker."""
+    out = tracks.copy()
+    for m in markers:
+        x, y = cal.to_plane(out[f"{m}_x_px"].to_numpy(), out[f"{m}_y_px"].to_numpy())
+        out[f"{m}_x_mm"], out[f"{m}_y_mm"] = x, y
+        out[f"{m}_sigma_mm"] = out[f"{m}_sigma_px"] * cal.mm_per_px
+    return out

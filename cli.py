@@ -1,0 +1,272 @@
+"""The ``cranktrack`` command: parse, call the library, print.
+
+Every error a user can cause ends in one sentence on stderr and a non-zero
+exit (1 for bad input, 2 for a bad command line, 130 for Ctrl-C); files
+already written stay on disk.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+from collections.abc import Callable, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+from cranktrack.errors import CranktrackError
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"size {text!r} is not WIDTHxHEIGHT, e.g. 1280x720") from None
+    if w < 16 or h < 16:
+        raise argparse.ArgumentTypeError(f"size {text!r} is too small (at least 16x16)")
+    return w, h
+
+
+def _positive(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not v > 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be positive")
+    return v
+
+
+def _non_negative(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not v >= 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be 0 or more")
+    return v
+
+
+def _show_progress() -> bool:
+    return sys.stderr.isatty() and not os.environ.get("CI")
+
+
+@contextmanager
+def _progress(desc: str, total: int | None = None):
+    """A tqdm bar on a terminal; nothing in CI or when piped."""
+    from tqdm import tqdm
+
+    bar = tqdm(total=total, desc=desc, unit="frame", disable=not _show_progress(),
+               file=sys.stderr, leave=False)
+    try:
+        yield bar
+    finally:
+        bar.close()
+
+
+def _add_render_options(p: argparse.ArgumentParser, seconds: float = 2.5,
+                        noise: float = 2.5) -> None:
+    p.add_argument("--size", type=_size, default=(1280, 720), help="WIDTHxHEIGHT (1280x720)")
+    p.add_argument("--fps", type=_positive, default=30.0, help="frame rate (30)")
+    p.add_argument("--seconds", type=_positive, default=seconds, help=f"clip length ({seconds})")
+    p.add_argument("--noise", type=_non_negative, default=noise,
+                   help=f"sensor noise σ in 8-bit DN ({noise})")
+    p.add_argument("--seed", type=int, default=0, help="noise seed (0)")
+    p.add_argument("--lossless", action="store_true",
+                   help="bit-exact RGB H.264 instead of ordinary H.264")
+    p.add_argument("--crf", type=int, default=20, help="H.264 quality when lossy (20)")
+
+
+def _render_settings(args: argparse.Namespace):
+    from cranktrack.synthetic.scene import RenderSettings
+
+    return RenderSettings(size=args.size, fps=args.fps, seconds=args.seconds,
+                          noise_dn=args.noise, seed=args.seed, lossless=args.lossless,
+                          crf=args.crf)
+
+
+def _spool_scenario(args: argparse.Namespace):
+    from cranktrack.kinematics.spool import SpoolDrive
+    from cranktrack.synthetic.scenarios import SpoolScenario
+
+    return SpoolScenario(SpoolDrive(start_s=args.start_s, stroke_mm=args.stroke_mm,
+                                    speed_mm_s=args.speed_mm_s))
+
+
+def _render(args: argparse.Namespace, out: Path):
+    from cranktrack.synthetic.scene import render_scene
+
+    settings = _render_settings(args)
+    with _progress("render", settings.n_frames) as bar:
+        return render_scene(_spool_scenario(args), out, settings,
+                            on_frame=lambda i, n: bar.update(1))
+
+
+def cmd_synth(args: argparse.Namespace) -> int:
+    files = _render(args, Path(args.out))
+    print(f"wrote {files.video}, {files.truth.name} and {files.scene.name}")
+    return 0
+
+
+def _track(args: argparse.Namespace, video: Path, out: Path):
+    from cranktrack.calibration.known_length import parse_known_length
+    from cranktrack.pipeline import track_run
+    from cranktrack.tracker.markers import DEFAULT_MARKERS, MarkerSpec
+
+    known = parse_known_length(args.known_length) if args.known_length else None
+    specs = DEFAULT_MARKERS
+    if getattr(args, "marker", None):
+        given = {}
+        for item in args.marker:
+            name, sep, colour = item.partition("=")
+            if not sep or not name.strip():
+                raise CranktrackError(f"--marker {item!r} is not NAME=COLOUR, e.g. B=red")
+            given[name.strip()] = MarkerSpec.from_colour(name.strip(), colour)
+        specs = tuple(given.get(s.name, s) for s in DEFAULT_MARKERS) + tuple(
+            v for k, v in given.items() if k not in {s.name for s in DEFAULT_MARKERS})
+    with _progress("track") as bar:
+        def start(total: int | None) -> None:
+            bar.total = total
+            bar.refresh()
+
+        return track_run(video, out, known, specs, fps=getattr(args, "fps_images", None),
+                         window_s=args.window_s, on_start=start,
+                         on_frame=lambda i: bar.update(1))
+
+
+def _print_warnings(warnings: Sequence[str]) -> None:
+    for w in warnings:
+        print(f"warning: {w}", file=sys.stderr)
+
+
+def cmd_track(args: argparse.Namespace) -> int:
+    run = _track(args, Path(args.video), Path(args.out))
+    _print_warnings(run.warnings)
+    found = ", ".join(f"{m} {100 * run.tracks[m + '_ok'].mean():.0f}%"
+                      for m in [c[:-3] for c in run.tracks.columns if c.endswith("_ok")])
+    print(f"tracked {len(run.tracks)} frames (markers found: {found})")
+    if run.calibration is None:
+        print("no --known-length given: tracks are in pixels only, no kinematics")
+    for f in run.files.values():
+        print(f"wrote {f}")
+    return 0
+
+
+def _format_table(rows: list[list[str]]) -> str:
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    lines = ["  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in
+                       enumerate(zip(r, widths, strict=True))) for r in rows]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    from cranktrack.kinematics.compare import error_summary, spool_model
+
+    out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="cranktrack-demo-"))
+    scenario = _spool_scenario(args)
+    d = scenario.drive
+    print(f"Rendering the spool test bed of thesis Table 2.2 (L1 {d.L1} mm, L2 {d.L2} mm, "
+          f"L3_0 {d.L3_0} mm, {d.speed_mm_s} mm/s): {args.size[0]}x{args.size[1]}, "
+          f"{args.fps:g} fps, {args.seconds:g} s, noise σ {args.noise:g} DN, "
+          f"{'lossless' if args.lossless else 'H.264'}")
+    files = _render(args, out / "scene")
+    args.known_length = f"A-C={d.L1}"
+    run = _track(args, files.video, out / "run")
+    _print_warnings(run.warnings)
+    measured = run.kinematics
+    model = spool_model(d, measured["t_s"].to_numpy())
+    t = measured["t_s"].to_numpy()
+    away = (np.abs(t - d.start_s) > args.window_s) & (np.abs(t - d.stop_s) > args.window_s)
+    rows = [["quantity", "frames", "RMS error", "max error", "RMS % of peak"]]
+    for label, mask in (("all frames", None), ("away from start/stop", away)):
+        summary = error_summary(measured, model, mask=mask)
+        for r in summary.itertuples():
+            rows.append([f"{r.quantity} ({label})", str(r.frames), f"{r.rms:.4g} {r.unit}",
+                         f"{r.max_abs:.4g} {r.unit}", f"{r.rms_pct_of_peak:.2f}"])
+    rocking_meas = np.nanmax(measured["theta_deg"]) - np.nanmin(measured["theta_deg"])
+    rocking_model = np.nanmax(model["theta_deg"]) - np.nanmin(model["theta_deg"])
+    print()
+    print("Measured vs analytic model (eqs. 2.1-2.5 with the spool drive):")
+    print(_format_table(rows))
+    print(f"rocking angle: measured {rocking_meas:.3f} deg, model {rocking_model:.3f} deg")
+    print(f"('away from start/stop' leaves out ±{args.window_s:g} s around the drive's start "
+          "and stop, where ω steps and any smoothing differentiator lags)")
+    print()
+    print(f"outputs: {out}")
+    print(f"  scene: {files.video.name}, {files.truth.name}, {files.scene.name} in {files.folder}")
+    print(f"  run:   {', '.join(p.name for p in run.files.values())} in {run.folder}")
+    return 0
+
+
+def _add_scene_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--start-s", type=_non_negative, default=0.5,
+                   help="time the spool starts, s (0.5)")
+    p.add_argument("--stroke-mm", type=_positive, default=15.0,
+                   help="wire wound in, mm; below 17 for Table 2.2 (15)")
+    p.add_argument("--speed-mm-s", type=_positive, default=14.0,
+                   help="spool speed, mm/s (14.0, Table 2.2)")
+
+
+def _add_track_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--known-length", metavar="A-C=MM",
+                   help="a constant marker distance that sets the scale, e.g. A-C=160.8")
+    p.add_argument("--window-s", type=_positive, default=0.2,
+                   help="differentiator window, s (0.2)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="cranktrack",
+        description="Track coloured markers on a crank-slider and measure its kinematics.")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("synth", help="render a synthetic scene with its ground truth")
+    p.add_argument("scenario", choices=["spool"], help="what to render")
+    p.add_argument("--out", required=True, help="output folder")
+    _add_render_options(p, seconds=5.0)
+    _add_scene_options(p)
+    p.set_defaults(func=cmd_synth)
+
+    p = sub.add_parser("track", help="track a video into a run folder")
+    p.add_argument("video", help="video file, or a folder of numbered images")
+    p.add_argument("--out", required=True, help="run folder to write")
+    _add_track_options(p)
+    p.add_argument("--marker", action="append", metavar="NAME=COLOUR",
+                   help="marker colour (red, green, blue, yellow, … or a hue in degrees); "
+                        "repeat per marker. Defaults: A=green B=red C=blue")
+    p.add_argument("--fps", dest="fps_images", type=_positive,
+                   help="frame rate of an image folder (videos use their own timestamps)")
+    p.set_defaults(func=cmd_track)
+
+    p = sub.add_parser("demo", help="render the default spool scene, track it, compare with "
+                                    "the model")
+    p.add_argument("--out", help="output folder (default: a new temporary folder)")
+    _add_render_options(p)
+    _add_scene_options(p)
+    p.add_argument("--window-s", type=_positive, default=0.2,
+                   help="differentiator window, s (0.2)")
+    p.set_defaults(func=cmd_demo)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``cranktrack`` console script."""
+    args = build_parser().parse_args(argv)
+    func: Callable[[argparse.Namespace], int] = args.func
+    try:
+        return func(args)
+    except CranktrackError as e:
+        print(f"cranktrack: error: {e}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("cranktrack: interrupted; files already written are kept", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

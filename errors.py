@@ -1,0 +1,12 @@
+"""The one exception type a person may see.
+
+Library code raises :class:`CranktrackError` (or a subclass) for anything a
+user can fix: a missing file, a video that is not a video, markers that are
+not there, a bad option. Its message is one sentence that names the thing and,
+where it helps, what to do. The CLI prints that sentence and exits non-zero;
+any other exception is a bug.
+"""
+
+
+class CranktrackError(Exception):
+    """A problem with the user's input, reported as one clear sentence."""

@@ -1,0 +1,61 @@
+"""Writing outputs so that a reader never sees half a file.
+
+Every file a run produces is written to a temporary name in the same folder
+and renamed into place, so an interruption leaves either the old file or the
+new one.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from cranktrack.errors import CranktrackError
+
+
+def ensure_dir(path: str | os.PathLike) -> Path:
+    """Create ``path`` (and parents) or say clearly why it cannot be."""
+    p = Path(path)
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except FileExistsError as e:
+        raise CranktrackError(
+            f"{p} exists and is not a folder; choose another output folder") from e
+    except PermissionError as e:
+        raise CranktrackError(f"cannot create the folder {p}: permission denied") from e
+    if not os.access(p, os.W_OK):
+        raise CranktrackError(f"the folder {p} is not writable; choose another output folder")
+    return p
+
+
+def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
+    """Write ``text`` to ``path`` via a temporary file and an atomic rename."""
+    p = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".partial", dir=p.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
+            f.write(text)
+        # mkstemp makes the file private; give it the permissions a plain open() would.
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
+        os.replace(tmp, p)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return p
+
+
+def write_csv_atomic(path: str | os.PathLike, table: pd.DataFrame) -> Path:
+    """Write a table as CSV (full float precision, no index) atomically."""
+    return write_text_atomic(path, table.to_csv(index=False, float_format="%.10g"))
+
+
+def write_json_atomic(path: str | os.PathLike, data: Any) -> Path:
+    """Write JSON (indented, UTF-8) atomically."""
+    return write_text_atomic(path, json.dumps(data, indent=2, allow_nan=True) + "\n")

@@ -1,0 +1,126 @@
+"""A whole run: video → tracks → plane coordinates → kinematics, in one folder.
+
+Each step's output is written as soon as it exists, so a failure later in
+the run keeps what was done before it.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+
+import pandas as pd
+
+from cranktrack.calibration.file import save_calibration
+from cranktrack.calibration.known_length import (
+    PlaneCalibration,
+    add_plane_coordinates,
+    calibrate_known_length,
+)
+from cranktrack.errors import CranktrackError
+from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic
+from cranktrack.kinematics.measured import DEFAULT_WINDOW_S, measure_kinematics
+from cranktrack.tracker.markers import DEFAULT_MARKERS, MarkerSpec
+from cranktrack.tracker.track import track
+from cranktrack.tracker.video import open_frames
+
+RUN_SCHEMA = 1
+
+
+@dataclass
+class RunResult:
+    """What a run wrote and learned."""
+
+    folder: Path
+    tracks: pd.DataFrame
+    kinematics: pd.DataFrame | None
+    calibration: PlaneCalibration | None
+    files: dict[str, Path] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("cranktrack")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+def track_run(
+    video: str | os.PathLike,
+    out_dir: str | os.PathLike,
+    known_length: tuple[str, str, float] | None,
+    specs: tuple[MarkerSpec, ...] = DEFAULT_MARKERS,
+    fps: float | None = None,
+    window_s: float = DEFAULT_WINDOW_S,
+    on_start: Callable[[int | None], None] | None = None,
+    on_frame: Callable[[int], None] | None = None,
+) -> RunResult:
+    """Track ``video`` into ``out_dir``.
+
+    Writes ``tracks.csv`` (pixels, plus plane mm when ``known_length`` is
+    given), ``calibration.json`` and ``kinematics.csv`` (only with a scale),
+    and ``run.json`` with the provenance and quality figures.
+    ``on_start(expected_frames)`` and ``on_frame(index)`` report progress.
+    """
+    source = open_frames(video, fps=fps)
+    folder = ensure_dir(out_dir)
+    if on_start:
+        on_start(source.expected_frames)
+    result = track(source, specs, on_frame=on_frame)
+    tracks = result.tracks
+    names = tuple(s.name for s in specs)
+    warnings = list(result.problems)
+    for name, frac in result.found_fraction.items():
+        if frac == 0:
+            warnings.append(f"marker {name} was not found in any frame; check its colour")
+        elif frac < 0.95:
+            warnings.append(f"marker {name} was found in only {100 * frac:.0f}% of frames")
+    files = {"tracks": write_csv_atomic(folder / "tracks.csv", tracks)}
+    run_info = {
+        "schema": RUN_SCHEMA,
+        "cranktrack": _version(),
+        "python": platform.python_version(),
+        "created": datetime.now(UTC).isoformat(timespec="seconds"),
+        "source": {"path": str(Path(video).resolve()), "kind": source.kind,
+                   "codec": source.codec, "width": source.width, "height": source.height},
+        "markers": {s.name: {"hue_deg": s.hue_deg, "hue_tol_deg": s.hue_tol_deg}
+                    for s in specs},
+        "tracking": result.to_dict(),
+        "warnings": warnings,
+    }
+    files["run"] = write_json_atomic(folder / "run.json", run_info)
+
+    cal = kinematics = None
+    if known_length is not None:
+        never = [s for s in specs if result.found_fraction[s.name] == 0]
+        if never:
+            s0 = never[0]
+            raise CranktrackError(
+                f"marker {s0.name} (hue {s0.hue_deg:g}°) was not found in any frame, so there "
+                f"are no kinematics; {folder / 'tracks.csv'} has what was found; check the "
+                "marker's colour (--marker NAME=COLOUR)")
+        a, b, length = known_length
+        cal = calibrate_known_length(tracks, a, b, length, (source.width, source.height))
+        warnings += list(cal.warnings)
+        files["calibration"] = save_calibration(folder / "calibration.json", cal)
+        tracks = add_plane_coordinates(tracks, cal, names)
+        files["tracks"] = write_csv_atomic(folder / "tracks.csv", tracks)
+        if {"A", "B", "C"} <= set(names):
+            kinematics = measure_kinematics(tracks, window_s=window_s)
+            files["kinematics"] = write_csv_atomic(folder / "kinematics.csv", kinematics)
+        else:
+            raise CranktrackError("kinematics need markers A, B and C; the run tracked only "
+                                  + ", ".join(names))
+        run_info["calibration"] = {"method": cal.method, "mm_per_px": cal.mm_per_px,
+                                   **cal.quality}
+        run_info["kinematics"] = {"window_s": window_s}
+        run_info["warnings"] = warnings
+        files["run"] = write_json_atomic(folder / "run.json", run_info)
+    return RunResult(folder, tracks, kinematics, cal, files, warnings)

@@ -1,0 +1,86 @@
+"""Known-length calibration, the plane frame and the calibration file."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from cranktrack.calibration.file import load_calibration, save_calibration
+from cranktrack.calibration.known_length import (
+    add_plane_coordinates,
+    calibrate_known_length,
+    parse_known_length,
+)
+from cranktrack.errors import CranktrackError
+from cranktrack.synthetic.camera import Camera
+
+
+def _tracks_from_camera(cam: Camera, n: int = 20, jitter: float = 0.0) -> pd.DataFrame:
+    rng = np.random.default_rng(0)
+    theta = np.linspace(0.5, 0.3, n)
+    pts = {"A": np.zeros((n, 2)), "B": 72.4 * np.stack([np.cos(theta), np.sin(theta)], 1),
+           "C": np.tile([160.8, 0.0], (n, 1))}
+    cols = {"frame": np.arange(n), "t_s": np.arange(n) / 30}
+    for m, xy in pts.items():
+        uv = cam.project(xy) + rng.normal(0, jitter, (n, 2))
+        cols |= {f"{m}_x_px": uv[:, 0], f"{m}_y_px": uv[:, 1], f"{m}_sigma_px": np.full(n, 0.1),
+                 f"{m}_ok": np.ones(n, bool)}
+    return pd.DataFrame(cols), pts
+
+
+def test_known_length_recovers_scale_and_plane_frame_of_a_rotated_camera():
+    cam = Camera(640, 480, 2.5, (200.0, 300.0), rotation_deg=17.0)
+    tracks, pts = _tracks_from_camera(cam)
+    cal = calibrate_known_length(tracks, "A", "C", 160.8, (640, 480))
+    assert cal.mm_per_px == pytest.approx(1 / 2.5)
+    assert cal.x_axis_deg == pytest.approx(17.0)
+    out = add_plane_coordinates(tracks, cal, ("A", "B", "C"))
+    np.testing.assert_allclose(out[["B_x_mm", "B_y_mm"]].to_numpy(), pts["B"], atol=1e-9)
+    np.testing.assert_allclose(out["B_sigma_mm"], 0.1 / 2.5)
+    assert not cal.warnings
+
+
+def test_a_length_that_varies_is_reported():
+    cam = Camera(640, 480, 2.5, (200.0, 300.0))
+    tracks, _ = _tracks_from_camera(cam)
+    tracks.loc[10:, "C_x_px"] += 12.0  # the "rigid" frame grows by ~4.8 mm (3%)
+    cal = calibrate_known_length(tracks, "A", "C", 160.8, (640, 480))
+    assert cal.quality["length_range_mm"] == pytest.approx(12.0 * cal.mm_per_px, rel=1e-6)
+    # half the frames at each length: a 1σ spread of half the jump, 1.5%
+    assert cal.quality["length_relative_spread"] == pytest.approx(6.0 * cal.mm_per_px / 160.8)
+    assert cal.warnings and "tilted" in cal.warnings[0]
+
+
+def test_file_round_trip_and_refusals(tmp_path):
+    cam = Camera(640, 480, 2.5, (200.0, 300.0), rotation_deg=-5.0)
+    tracks, _ = _tracks_from_camera(cam)
+    cal = calibrate_known_length(tracks, "A", "C", 160.8, (640, 480))
+    path = save_calibration(tmp_path / "cal.json", cal)
+    again = load_calibration(path, image_size=(640, 480))
+    assert again.mm_per_px == pytest.approx(cal.mm_per_px)
+    assert again.x_axis_deg == pytest.approx(cal.x_axis_deg)
+    with pytest.raises(CranktrackError, match="made for 640x480"):
+        load_calibration(path, image_size=(1280, 720))
+    data = json.loads(path.read_text())
+    data["schema"] = 99
+    (tmp_path / "future.json").write_text(json.dumps(data))
+    with pytest.raises(CranktrackError, match="schema 99"):
+        load_calibration(tmp_path / "future.json")
+    (tmp_path / "bad.json").write_text("{not json")
+    with pytest.raises(CranktrackError, match="not valid JSON"):
+        load_calibration(tmp_path / "bad.json")
+
+
+@pytest.mark.parametrize("text", ["A-C", "A=3", "A-A=3", "A-C=-1", "A-C=x"])
+def test_bad_known_length_is_one_clear_error(text):
+    with pytest.raises(CranktrackError, match="known-length"):
+        parse_known_length(text)
+
+
+def test_markers_never_seen_together_cannot_calibrate():
+    cam = Camera(640, 480, 2.5, (200.0, 300.0))
+    tracks, _ = _tracks_from_camera(cam)
+    tracks["C_ok"] = False
+    with pytest.raises(CranktrackError, match="never found in the same frame"):
+        calibrate_known_length(tracks, "A", "C", 160.8, (640, 480))

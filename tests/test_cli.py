@@ -1,0 +1,86 @@
+"""The command line: the demo, and one clear sentence for bad input."""
+
+import subprocess
+import sys
+
+import pandas as pd
+import pytest
+
+from cranktrack.cli import main
+
+
+def _run(*args: str) -> subprocess.CompletedProcess:
+    # A real process, so we see exactly what a user sees (and any traceback).
+    return subprocess.run([sys.executable, "-m", "cranktrack.cli", *args],
+                          capture_output=True, text=True, timeout=300)
+
+
+def test_demo_prints_the_table_and_where_the_outputs_are(tmp_path):
+    p = _run("demo", "--out", str(tmp_path), "--size", "320x240", "--seconds", "2")
+    assert p.returncode == 0, p.stderr
+    assert "theta_deg (all frames)" in p.stdout and "omega_rad_s" in p.stdout
+    assert f"outputs: {tmp_path}" in p.stdout
+    for name in ("scene/video.mp4", "scene/truth.csv", "run/tracks.csv", "run/kinematics.csv"):
+        assert (tmp_path / name).exists()
+
+
+def test_synth_then_track(tmp_path, capsys):
+    assert main(["synth", "spool", "--out", str(tmp_path / "s"), "--size", "160x120",
+                 "--seconds", "1", "--noise", "0"]) == 0
+    assert main(["track", str(tmp_path / "s" / "video.mp4"), "--out", str(tmp_path / "r")]) == 0
+    out = capsys.readouterr().out
+    assert "no --known-length" in out
+    tracks = pd.read_csv(tmp_path / "r" / "tracks.csv")
+    assert len(tracks) == 30 and "A_x_mm" not in tracks
+    assert not (tmp_path / "r" / "kinematics.csv").exists()
+
+
+def _one_sentence_error(p: subprocess.CompletedProcess, *words: str) -> None:
+    assert p.returncode != 0
+    assert "Traceback" not in p.stderr
+    lines = [ln for ln in p.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1, p.stderr
+    for w in words:
+        assert w in lines[0]
+
+
+def test_missing_video(tmp_path):
+    _one_sentence_error(_run("track", str(tmp_path / "nope.mp4"), "--out", str(tmp_path / "r")),
+                        "nope.mp4", "does not exist")
+
+
+def test_text_file_named_mp4(tmp_path):
+    fake = tmp_path / "notes.mp4"
+    fake.write_text("this is not a video\n" * 20)
+    _one_sentence_error(_run("track", str(fake), "--out", str(tmp_path / "r")),
+                        "notes.mp4", "not a video")
+
+
+def test_empty_file(tmp_path):
+    empty = tmp_path / "empty.mp4"
+    empty.touch()
+    _one_sentence_error(_run("track", str(empty), "--out", str(tmp_path / "r")), "empty")
+
+
+def test_bad_known_length(small_h264, tmp_path):
+    _one_sentence_error(_run("track", str(small_h264.video), "--out", str(tmp_path / "r"),
+                             "--known-length", "A-C"), "NAME-NAME=MILLIMETRES")
+
+
+def test_marker_colour_absent_keeps_tracks_and_explains(small_h264, tmp_path):
+    # B is asked to be yellow; there is no yellow in the scene.
+    p = _run("track", str(small_h264.video), "--out", str(tmp_path / "r"),
+             "--known-length", "A-C=160.8", "--marker", "B=yellow")
+    _one_sentence_error(p, "marker B", "not found in any frame", "tracks.csv")
+    assert (tmp_path / "r" / "tracks.csv").exists()  # work done so far is kept
+
+
+def test_impossible_stroke_is_refused(tmp_path):
+    _one_sentence_error(_run("synth", "spool", "--out", str(tmp_path), "--stroke-mm", "18"),
+                        "stroke of 18.0 mm")
+
+
+@pytest.mark.parametrize("bad", [["--size", "big"], ["--fps", "-3"]])
+def test_bad_option_values_exit_2(bad, tmp_path):
+    p = _run("synth", "spool", "--out", str(tmp_path), *bad)
+    assert p.returncode == 2 and "Traceback" not in p.stderr

@@ -1,0 +1,18 @@
+"""The examples in the docstrings run and say what they show."""
+
+import doctest
+import importlib
+
+import pytest
+
+MODULES = [
+    "cranktrack.kinematics.crank_slider",
+    "cranktrack.kinematics.differentiate",
+]
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_docstring_examples(name):
+    module = importlib.import_module(name)
+    result = doctest.testmod(module, optionflags=doctest.ELLIPSIS)
+    assert result.attempted > 0 and result.failed == 0

@@ -1,0 +1,68 @@
+"""Render a small spool scene, track it, and compare with its truth."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from cranktrack.kinematics.compare import error_summary, spool_model
+from cranktrack.kinematics.spool import SpoolDrive
+from cranktrack.pipeline import track_run
+from cranktrack.tables import kinematics_columns, track_mm_columns, track_px_columns
+
+# At 320×240 the scene scale is 1.59 px/mm, so the crank A–B (72.4 mm) is 115 px
+# long. A centre error of 0.25 px on each of A and B (1/15 of the 3.7 px marker
+# radius) turns the crank by at most 0.5 / 115 rad = 0.25°: the bound for the
+# per-frame angle and for the rocking angle (largest minus smallest θ).
+THETA_BOUND_DEG = np.degrees(0.5 / 115)
+
+
+@pytest.fixture(scope="module")
+def run(small_h264, tmp_path_factory):
+    return track_run(small_h264.video, tmp_path_factory.mktemp("run"), ("A", "C", 160.8))
+
+
+def test_run_folder_has_the_contract_tables(run):
+    tracks = pd.read_csv(run.folder / "tracks.csv")
+    kin = pd.read_csv(run.folder / "kinematics.csv")
+    assert set(track_px_columns()) | set(track_mm_columns()) <= set(tracks.columns)
+    assert list(kin.columns) == kinematics_columns()
+    assert len(tracks) == len(kin) == 60
+    assert (run.folder / "calibration.json").exists() and (run.folder / "run.json").exists()
+    assert tracks[["A_ok", "B_ok", "C_ok"]].all().all()
+
+
+def test_timestamps_come_from_the_container(run, small_h264):
+    truth = pd.read_csv(small_h264.truth)
+    np.testing.assert_allclose(run.tracks["t_s"], truth["t_s"], atol=1e-4)
+
+
+def test_rocking_angle_within_the_pixel_scale_bound(run, small_h264):
+    truth = pd.read_csv(small_h264.truth)
+    err = run.kinematics["theta_deg"] - truth["theta_deg"]
+    assert np.max(np.abs(err)) < THETA_BOUND_DEG
+    rocking = np.ptp(run.kinematics["theta_deg"])
+    assert rocking == pytest.approx(np.ptp(truth["theta_deg"]), abs=THETA_BOUND_DEG)
+    # And the rocking angle is the thesis model's: 15 mm of the Table 2.2 bed.
+    assert np.ptp(truth["theta_deg"]) == pytest.approx(20.80, abs=0.01)
+
+
+def test_angular_velocity_matches_the_model_away_from_the_steps(run):
+    drive = SpoolDrive()
+    k = run.kinematics
+    model = spool_model(drive, k["t_s"].to_numpy())
+    t = k["t_s"].to_numpy()
+    away = (np.abs(t - drive.start_s) > 0.2) & (np.abs(t - drive.stop_s) > 0.2)
+    s = error_summary(k, model, mask=away).set_index("quantity")
+    # θ noise ~0.05° over a 7-sample window gives ~0.01 rad/s; 5% of the 0.6 rad/s peak
+    # leaves room for it.
+    assert s.loc["omega_rad_s", "rms_pct_of_peak"] < 5.0
+    assert s.loc["vB_mm_s", "rms_pct_of_peak"] < 5.0
+    assert s.loc["omega_rad_s", "frames"] > 20
+
+
+def test_calibrated_scale_matches_the_render(run, small_h264):
+    import json
+
+    scene = json.loads(small_h264.scene.read_text())
+    assert run.calibration.mm_per_px == pytest.approx(1 / scene["camera"]["px_per_mm"],
+                                                      rel=2e-3)

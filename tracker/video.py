@@ -1,0 +1,176 @@
+"""Reading frames one at a time, with each frame's time from the container.
+
+Video files are read with PyAV (anything FFmpeg reads); a folder of numbered
+images is read in natural order at a frame rate the user gives. Frames are
+streamed, so memory does not grow with the length of the video. Times come
+from the presentation timestamps, never from ``index / fps``; what the
+timestamps say about the recording (variable rate, duplicated or dropped
+frames) is summarised by :func:`timing_report`.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import av
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from cranktrack.errors import CranktrackError
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One decoded frame: its index in decode order, time (s) and RGB pixels."""
+
+    index: int
+    t_s: float
+    rgb: NDArray[np.uint8]
+
+
+@dataclass
+class FrameSource:
+    """An opened video file or image folder.
+
+    Iterate :meth:`frames` once. Problems met while decoding (a corrupt
+    packet that was skipped) are appended to ``problems`` as sentences.
+    """
+
+    path: Path
+    kind: str  # "video" or "images"
+    width: int
+    height: int
+    nominal_fps: float | None
+    expected_frames: int | None
+    codec: str
+    problems: list[str] = field(default_factory=list)
+    _images: list[Path] = field(default_factory=list, repr=False)
+
+    def frames(self) -> Iterator[Frame]:
+        """Yield frames in presentation order of the file."""
+        if self.kind == "images":
+            yield from self._image_frames()
+        else:
+            yield from self._video_frames()
+
+    def _video_frames(self) -> Iterator[Frame]:
+        with av.open(str(self.path)) as container:
+            stream = container.streams.video[0]
+            stream.thread_type = "AUTO"  # frame-threaded decoding; order is kept
+            index = 0
+            for packet in container.demux(stream):
+                try:
+                    decoded = packet.decode()
+                except av.FFmpegError as e:
+                    self.problems.append(
+                        f"a corrupt packet after frame {index - 1} was skipped ({e})")
+                    continue
+                for frame in decoded:
+                    t = frame.time
+                    if t is None:
+                        t = index / self.nominal_fps if self.nominal_fps else float(index)
+                        if "no timestamps" not in " ".join(self.problems):
+                            self.problems.append(
+                                "the container has no timestamps for some frames; "
+                                "those use index / nominal fps")
+                    yield Frame(index, float(t), frame.to_ndarray(format="rgb24"))
+                    index += 1
+
+    def _image_frames(self) -> Iterator[Frame]:
+        fps = self.nominal_fps or 1.0
+        for index, p in enumerate(self._images):
+            bgr = cv2.imread(str(p), cv2.IMREAD_COLOR)
+            if bgr is None:
+                self.problems.append(f"{p.name} could not be read as an image and was skipped")
+                continue
+            yield Frame(index, index / fps, cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+
+
+def _natural_key(p: Path) -> list:
+    return [int(s) if s.isdigit() else s.lower() for s in re.split(r"(\d+)", p.name)]
+
+
+def open_frames(path: str | os.PathLike, fps: float | None = None) -> FrameSource:
+    """Open a video file or a folder of numbered images.
+
+    Parameters
+    ----------
+    path : path-like
+        A video file FFmpeg can read, or a folder of images.
+    fps : float, optional
+        Frame rate for an image folder (which carries no timestamps). Ignored
+        for video files, whose own timestamps are used.
+
+    Raises
+    ------
+    CranktrackError
+        The path is missing, empty, or not a readable video or image folder.
+    """
+    p = Path(path)
+    if not p.exists():
+        raise CranktrackError(f"{p} does not exist; check the path")
+    if p.is_dir():
+        images = sorted((q for q in p.iterdir() if q.suffix.lower() in IMAGE_SUFFIXES),
+                        key=_natural_key)
+        if not images:
+            raise CranktrackError(
+                f"{p} is a folder with no images in it; give a video file or a folder of "
+                f"numbered {'/'.join(s[1:] for s in IMAGE_SUFFIXES)} images")
+        if fps is None:
+            raise CranktrackError(
+                f"{p} is a folder of images, which carry no timestamps; give its frame rate "
+                "with --fps")
+        first = cv2.imread(str(images[0]), cv2.IMREAD_COLOR)
+        if first is None:
+            raise CranktrackError(f"{images[0]} is not an image OpenCV can read")
+        h, w = first.shape[:2]
+        return FrameSource(p, "images", w, h, float(fps), len(images), "images",
+                           _images=images)
+    if p.stat().st_size == 0:
+        raise CranktrackError(f"{p} is empty (0 bytes); it is not a video")
+    try:
+        with av.open(str(p)) as container:
+            if not container.streams.video:
+                raise CranktrackError(f"{p} has no video stream")
+            s = container.streams.video[0]
+            rate = float(s.average_rate) if s.average_rate else None
+            return FrameSource(p, "video", s.codec_context.width, s.codec_context.height, rate,
+                               s.frames or None, s.codec_context.name)
+    except av.FFmpegError as e:
+        raise CranktrackError(f"{p} is not a video FFmpeg can read ({e.strerror})") from e
+
+
+def timing_report(t_s: NDArray[np.float64], nominal_fps: float | None = None) -> dict:
+    """What the frame times say about the recording.
+
+    Returns a JSON-ready dict: median frame interval and rate, whether the
+    rate is variable (intervals spread by more than 1 %), the number of
+    duplicated timestamps, of non-increasing steps, and of gaps longer than
+    1.5 median intervals with the frames they are estimated to have dropped.
+    """
+    t = np.asarray(t_s, dtype=float)
+    out: dict = {"frames": int(t.size), "nominal_fps": nominal_fps}
+    if t.size < 2:
+        return out
+    dt = np.diff(t)
+    positive = dt[dt > 0]
+    med = float(np.median(positive)) if positive.size else float("nan")
+    gaps = dt > 1.5 * med
+    out.update(
+        duration_s=float(t[-1] - t[0]),
+        median_interval_s=med,
+        median_fps=1.0 / med if med > 0 else None,
+        variable_rate=bool(positive.size and (positive.max() - positive.min()) > 0.01 * med),
+        duplicated_timestamps=int(np.sum(dt == 0)),
+        backward_steps=int(np.sum(dt < 0)),
+        gaps=int(gaps.sum()),
+        dropped_frames_estimate=int(np.sum(np.rint(dt[gaps] / med) - 1)),
+    )
+    return out
