@@ -1,0 +1,1 @@
+"""Measured kinematics from tracks, and the analytic models of the thesis."""

@@ -1,0 +1,1 @@
+"""Frames in, marker tracks out: reading video, finding colour markers, the frame loop."""
