@@ -78,49 +78,81 @@ DEFAULT_MARKERS: tuple[MarkerSpec, ...] = (
 
 
 @dataclass(frozen=True)
-class Detection:
-    """A marker centre (px), its per-axis 1-σ uncertainty (px) and blob area (px²).
-
-    A marker not found has NaN position and ``ok = False``.
-    """
+class Blob:
+    """A connected region of a marker's colour: mask centroid (px), area (px²),
+    fill (area ÷ bounding-box area; π/4 for a disc) and bounding-box aspect ratio."""
 
     x: float
     y: float
-    sigma: float
     area: float
-    ok: bool
+    fill: float
+    aspect: float
 
-    @classmethod
-    def missing(cls) -> Detection:
-        return cls(np.nan, np.nan, np.nan, 0.0, False)
+    @property
+    def radius(self) -> float:
+        """Radius of a disc of the same area, px."""
+        return float(np.sqrt(self.area / np.pi))
 
-
-def mask_centroid_sigma(area_px: float) -> float:
-    """Per-axis 1-σ of a binary-mask centroid of a disc of ``area_px`` pixels.
-
-    Each of the ≈2πr edge pixels is in or out of the mask at random with
-    variance ≈ 1/6, at an offset ≈ r·cos φ from the centre, so
-    σ² ≈ (2πr · r²/2 · 1/6) / (πr²)² = 1 / (6πr).
-    """
-    r = np.sqrt(max(area_px, 1.0) / np.pi)
-    return float(np.sqrt(1.0 / (6.0 * np.pi * r)))
+    def disc_like(self) -> bool:
+        """Roughly a disc (partly covered or blurred discs still pass)."""
+        return 0.45 <= self.fill <= 0.95 and 0.4 <= self.aspect <= 2.5
 
 
-def detect(hsv: NDArray[np.uint8], spec: MarkerSpec) -> Detection:
-    """Largest blob of ``spec``'s colour and its mask centroid (px)."""
+def find_blobs(hsv: NDArray[np.uint8], spec: MarkerSpec, x0: int = 0, y0: int = 0
+               ) -> list[Blob]:
+    """Blobs of ``spec``'s colour in an HSV image (or patch whose top-left is x0, y0)."""
     mask = spec.mask(hsv)
     n, _, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
-    if n <= 1:
-        return Detection.missing()
-    areas = stats[1:, cv2.CC_STAT_AREA]
-    k = int(np.argmax(areas))
-    if areas[k] < spec.min_area_px:
-        return Detection.missing()
-    cx, cy = centroids[k + 1]
-    return Detection(float(cx), float(cy), mask_centroid_sigma(areas[k]), float(areas[k]), True)
+    blobs = []
+    for k in range(1, n):
+        area = float(stats[k, cv2.CC_STAT_AREA])
+        if area < spec.min_area_px:
+            continue
+        w, h = stats[k, cv2.CC_STAT_WIDTH], stats[k, cv2.CC_STAT_HEIGHT]
+        blobs.append(Blob(float(centroids[k][0]) + x0, float(centroids[k][1]) + y0, area,
+                          area / float(w * h), float(w) / float(h)))
+    return blobs
 
 
-def detect_all(rgb: NDArray[np.uint8], specs: tuple[MarkerSpec, ...]) -> dict[str, Detection]:
-    """Detect every marker in one RGB frame."""
-    hsv = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)
-    return {spec.name: detect(hsv, spec) for spec in specs}
+def choose_blob(blobs: list[Blob], expected_area: float | None = None,
+                near: tuple[float, float] | None = None) -> tuple[Blob | None, str]:
+    """Pick the marker among candidate blobs; returns ``(blob, status)``.
+
+    Blobs must be disc-like and, once the marker's size is known, within
+    0.3–3× its area. Among those, the nearest to ``near`` wins, else the
+    largest. ``status`` is ``"ok"``, ``"not_found"`` (no blob of the colour)
+    or ``"rejected"`` (blobs of the colour, none of a marker's size and shape).
+    """
+    if not blobs:
+        return None, "not_found"
+    good = [b for b in blobs if b.disc_like()]
+    if expected_area:
+        good = [b for b in good if 0.3 * expected_area <= b.area <= 3.0 * expected_area]
+    if not good:
+        return None, "rejected"
+    if near is not None:
+        return min(good, key=lambda b: (b.x - near[0]) ** 2 + (b.y - near[1]) ** 2), "ok"
+    return max(good, key=lambda b: b.area), "ok"
+
+
+def learn_spec(spec: MarkerSpec, rgb_patch: NDArray[np.uint8], centre: tuple[float, float],
+               radius: float, x0: int, y0: int) -> MarkerSpec:
+    """A spec re-centred on the hue actually seen in the marker's middle.
+
+    Lighting shifts hues; the learned window is centred on the circular
+    median hue of the pixels within 0.6 of the radius, ±15° or three times
+    their spread, whichever is wider. The saturation and value floors stay,
+    so blurred edges still count.
+    """
+    hsv = cv2.cvtColor(np.ascontiguousarray(rgb_patch), cv2.COLOR_RGB2HSV)
+    h, w = hsv.shape[:2]
+    yy, xx = np.mgrid[0:h, 0:w]
+    inner = (xx + x0 - centre[0]) ** 2 + (yy + y0 - centre[1]) ** 2 <= (0.6 * radius) ** 2
+    if inner.sum() < 3:
+        return spec
+    hue = np.radians(hsv[..., 0][inner].astype(float) * 2.0)
+    mean = np.arctan2(np.sin(hue).mean(), np.cos(hue).mean())
+    spread = np.degrees(np.abs(np.angle(np.exp(1j * (hue - mean)))))
+    return MarkerSpec(spec.name, float(np.degrees(mean) % 360.0),
+                      max(15.0, 3.0 * float(np.median(spread)) * 1.4826),
+                      spec.min_saturation, spec.min_value, spec.min_area_px)

@@ -11,7 +11,9 @@ frames) is summarised by :func:`timing_report`.
 from __future__ import annotations
 
 import os
+import queue
 import re
+import threading
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -53,12 +55,19 @@ class FrameSource:
     problems: list[str] = field(default_factory=list)
     _images: list[Path] = field(default_factory=list, repr=False)
 
-    def frames(self) -> Iterator[Frame]:
-        """Yield frames in presentation order of the file."""
-        if self.kind == "images":
-            yield from self._image_frames()
-        else:
-            yield from self._video_frames()
+    def frames(self, prefetch: int = 0) -> Iterator[Frame]:
+        """Yield frames in decode order.
+
+        With ``prefetch > 0`` a background thread decodes up to that many
+        frames ahead, so decoding overlaps whatever the caller does with each
+        frame (FFmpeg and OpenCV release the GIL while they work). Memory
+        stays bounded by the queue.
+        """
+        inner = self._image_frames() if self.kind == "images" else self._video_frames()
+        if prefetch <= 0:
+            yield from inner
+            return
+        yield from _prefetched(inner, prefetch)
 
     def _video_frames(self) -> Iterator[Frame]:
         with av.open(str(self.path)) as container:
@@ -91,6 +100,42 @@ class FrameSource:
                 self.problems.append(f"{p.name} could not be read as an image and was skipped")
                 continue
             yield Frame(index, index / fps, cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+
+
+def _prefetched(frames: Iterator[Frame], depth: int) -> Iterator[Frame]:
+    """Run ``frames`` in a daemon thread, handing over through a bounded queue."""
+    q: queue.Queue = queue.Queue(maxsize=depth)
+    stop = threading.Event()
+    done = object()
+
+    def work() -> None:
+        try:
+            for f in frames:
+                while not stop.is_set():
+                    try:
+                        q.put(f, timeout=0.1)
+                        break
+                    except queue.Full:
+                        continue
+                if stop.is_set():
+                    return
+            q.put(done)
+        except BaseException as e:  # hand decoder errors to the consumer
+            q.put(e)
+
+    thread = threading.Thread(target=work, name="cranktrack-decode", daemon=True)
+    thread.start()
+    try:
+        while True:
+            item = q.get()
+            if item is done:
+                return
+            if isinstance(item, BaseException):
+                raise item
+            yield item
+    finally:
+        stop.set()
+        thread.join(timeout=5)
 
 
 def _natural_key(p: Path) -> list:

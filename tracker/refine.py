@@ -1,0 +1,206 @@
+"""Sub-pixel marker centres with a 1-σ uncertainty.
+
+All methods work on a small patch around a coarse detection and on the
+*chroma* of the pixels: RGB minus its grey component, in a 2-D basis of the
+plane orthogonal to (1, 1, 1). Grey and near-neutral things (links, wire,
+board, shadows that only darken) have almost no chroma, so a pixel that is a
+mix ``α·marker + (1 − α)·grey`` has chroma ``α·marker_chroma`` whatever the
+grey is. Projecting the chroma on the marker's (minus the local background's)
+gives the coverage ``α`` of each pixel, linear in the data.
+
+Two estimators use that coverage image:
+
+- :func:`weighted_centroid`: the α-weighted centroid inside a circular
+  window re-centred on the estimate a few times.
+- :func:`fit_disc`: least squares of a blurred-disc model
+  ``α = b + a·Φ((r − d)/s)`` (centre, radius, edge width, gain, offset) by
+  Gauss–Newton; σ from the residual and the Jacobian.
+
+``bench/accuracy.py`` measures both against ``truth.csv`` and the
+Cramér–Rao bound; ``bench/README.md`` says which won.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.special import erf
+
+#: Orthonormal basis of the chroma plane (rows), orthogonal to grey (1, 1, 1).
+CHROMA_BASIS = np.array(
+    [[1.0, -1.0, 0.0], [1.0, 1.0, -2.0]], dtype=np.float32
+) / np.array([[np.sqrt(2.0)], [np.sqrt(6.0)]], dtype=np.float32)
+
+
+def chroma(rgb: NDArray) -> NDArray[np.float32]:
+    """Chroma of RGB pixels, shape (..., 2), in DN."""
+    return np.asarray(rgb, dtype=np.float32) @ CHROMA_BASIS.T
+
+
+def coverage(patch_rgb: NDArray, marker_chroma: NDArray, background_chroma: NDArray
+             ) -> NDArray[np.float32]:
+    """Per-pixel marker coverage α from linear unmixing in the chroma plane.
+
+    Not clipped: noise makes α a little negative or above 1, and clipping
+    would bias the estimators below.
+    """
+    d = np.asarray(marker_chroma, np.float32) - np.asarray(background_chroma, np.float32)
+    q = chroma(patch_rgb) - np.asarray(background_chroma, np.float32)
+    return (q @ d) / np.float32(d @ d)
+
+
+@dataclass(frozen=True)
+class Centre:
+    """A refined centre (px), its per-axis 1-σ (px), radius (px) and fit quality."""
+
+    x: float
+    y: float
+    sigma: float
+    radius: float
+    ok: bool
+    rms_residual: float = np.nan
+    #: Fitted coverage gain: ≈ 1 for a whole marker of the learned colour.
+    gain: float = np.nan
+
+
+def weighted_centroid(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
+                      radius: float, iterations: int = 3, noise_alpha: float | None = None
+                      ) -> Centre:
+    """α-weighted centroid in a circular window of ``radius`` + 2 px.
+
+    Parameters
+    ----------
+    alpha : ndarray (h, w)
+        Coverage image of the patch.
+    x0, y0 : float
+        Image coordinates of the patch's top-left pixel centre.
+    guess : (x, y)
+        Starting centre, image px.
+    radius : float
+        Expected marker radius, px.
+    noise_alpha : float, optional
+        1-σ of α per pixel; estimated from outside the window when omitted.
+    """
+    h, w = alpha.shape
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    xx += x0
+    yy += y0
+    cx, cy = guess
+    win_r = radius + 2.0
+    for _ in range(iterations):
+        win = ((xx - cx) ** 2 + (yy - cy) ** 2 <= win_r**2) & np.isfinite(alpha)
+        a = alpha[win]
+        total = float(a.sum())
+        if not total > 0:
+            return Centre(np.nan, np.nan, np.nan, radius, False)
+        cx = float((a * xx[win]).sum() / total)
+        cy = float((a * yy[win]).sum() / total)
+    if noise_alpha is None:
+        outside = alpha[((xx - cx) ** 2 + (yy - cy) ** 2 > (radius + 3.0) ** 2)
+                        & np.isfinite(alpha)]
+        noise_alpha = float(np.std(outside)) if outside.size > 10 else 0.05
+    var = float(((xx[win] - cx) ** 2).sum()) * noise_alpha**2 / total**2
+    return Centre(cx, cy, float(np.sqrt(var)), float(np.sqrt(total / np.pi)), True)
+
+
+def _disc_model(params: NDArray, xx: NDArray, yy: NDArray) -> tuple[NDArray, NDArray]:
+    cx, cy, r, s, a, b = params
+    dx, dy = xx - cx, yy - cy
+    d = np.sqrt(dx * dx + dy * dy) + 1e-9
+    z = (r - d) / s
+    phi = 0.5 * (1.0 + erf(z / np.sqrt(2.0)))
+    dens = np.exp(-0.5 * z * z) / np.sqrt(2.0 * np.pi)  # dΦ/dz
+    model = b + a * phi
+    g = a * dens / s
+    J = np.stack([g * dx / d, g * dy / d, g, -g * z, phi, np.ones_like(phi)], axis=-1)
+    return model, J
+
+
+def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
+             radius: float, iterations: int = 8, tol_px: float = 1e-4) -> Centre:
+    """Gauss–Newton fit of a blurred disc to a coverage patch.
+
+    The model is ``b + a·Φ((r − d)/s)`` with ``d`` the distance to the centre
+    and ``Φ`` the normal CDF: a disc whose edge is blurred by a Gaussian of
+    width ``s`` (area sampling gives s ≈ 0.3 px; H.264's chroma subsampling
+    more). Only pixels within ``radius + 3`` px of the guess enter the fit.
+    σ of the centre is ``√(RSS/(n−6) · (JᵀJ)⁻¹)``.
+    """
+    h, w = alpha.shape
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
+    xx += x0
+    yy += y0
+    alpha = np.asarray(alpha, np.float64)
+    use = ((xx - guess[0]) ** 2 + (yy - guess[1]) ** 2 <= (radius + 3.0) ** 2) & np.isfinite(alpha)
+    X, Y, A = xx[use], yy[use], alpha[use]
+    p = np.array([guess[0], guess[1], radius, 0.5, 1.0, 0.0])
+    for _ in range(iterations):
+        model, J = _disc_model(p, X, Y)
+        res = A - model
+        JtJ = J.T @ J
+        try:
+            step = np.linalg.solve(JtJ + 1e-9 * np.eye(6), J.T @ res)
+        except np.linalg.LinAlgError:
+            return Centre(np.nan, np.nan, np.nan, radius, False)
+        p = p + step
+        p[3] = max(p[3], 0.05)
+        if abs(step[0]) < tol_px and abs(step[1]) < tol_px:
+            break
+    model, J = _disc_model(p, X, Y)
+    res = A - model
+    dof = max(A.size - 6, 1)
+    s2 = float(res @ res) / dof
+    try:
+        cov = np.linalg.inv(J.T @ J) * s2
+    except np.linalg.LinAlgError:
+        return Centre(np.nan, np.nan, np.nan, radius, False)
+    moved = np.hypot(p[0] - guess[0], p[1] - guess[1])
+    ok = bool(np.all(np.isfinite(p)) and moved < radius and 0 < p[2] < 3 * radius)
+    sigma = float(np.sqrt(0.5 * (cov[0, 0] + cov[1, 1])))
+    return Centre(float(p[0]), float(p[1]), sigma, float(p[2]), ok, float(np.sqrt(s2)),
+                  float(p[4]))
+
+
+def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, float],
+                   radius: float, space: str = "chroma"
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Coverage α from RGB unmixing against a per-pixel background.
+
+    Each pixel within ``radius + 2`` px of ``centre`` is unmixed as
+    ``p = α·m + (1 − α)·b`` where ``m`` is the marker colour (median of the
+    pixels within 0.6·radius) and ``b`` the background along the same ray
+    from the centre, sampled just outside the disc (``radius`` + 3…5 px).
+    Links and the wire leave a marker radially, so the sample sees what lies
+    under the marker's edge; uneven light is followed too. Pixels farther out
+    are NaN.
+
+    Returns ``(alpha, marker_rgb)``.
+    """
+    import cv2
+
+    P = np.asarray(patch_rgb, dtype=np.float32)
+    if space == "chroma":
+        P = np.ascontiguousarray(chroma(P))
+    h, w = P.shape[:2]
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    dx = xx + np.float32(x0 - centre[0])
+    dy = yy + np.float32(y0 - centre[1])
+    rho = np.sqrt(dx * dx + dy * dy) + np.float32(1e-6)
+    inner = rho <= 0.6 * radius
+    m = np.median(P[inner], axis=0) if inner.sum() >= 3 else P[int(h / 2), int(w / 2)]
+    ux, uy = dx / rho, dy / rho
+    cx, cy = centre[0] - x0, centre[1] - y0
+    b = np.zeros_like(P)
+    for k in (3.0, 4.0, 5.0):
+        mx = (cx + (radius + k) * ux).astype(np.float32)
+        my = (cy + (radius + k) * uy).astype(np.float32)
+        b += cv2.remap(P, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    b /= 3.0
+    d = m[None, None, :] - b
+    denom = (d * d).sum(axis=-1)
+    alpha = ((P - b) * d).sum(axis=-1) / np.maximum(denom, 1e-6)
+    alpha = alpha.astype(np.float64)
+    alpha[rho > radius + 2.0] = np.nan
+    return alpha, m
