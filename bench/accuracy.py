@@ -11,6 +11,8 @@ coarse detection:
 - disc fit         chroma-unmixed coverage, blurred-disc Gauss–Newton fit
                    (what `cranktrack track` uses)
 - HoughCircles     cv2.HoughCircles on the grey patch, the usual alternative
+- tracker          `cranktrack track` itself: disc fit started from the motion
+                   prediction and the previous frame's fitted shape
 
 It prints the 2-D RMS error per marker, the Cramér–Rao bound of the noisy
 lossless render, the mean reported σ against the RMS error, and the bias per
@@ -31,14 +33,14 @@ import numpy as np
 import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import scene  # noqa: E402
+from common import scene
 
-from cranktrack.synthetic.bounds import marker_crb_px  # noqa: E402
-from cranktrack.synthetic.scene import RenderSettings  # noqa: E402
-from cranktrack.tracker.markers import DEFAULT_MARKERS, choose_blob, find_blobs  # noqa: E402
-from cranktrack.tracker.refine import fit_disc, local_coverage, weighted_centroid  # noqa: E402
-from cranktrack.tracker.track import _patch, refine  # noqa: E402
-from cranktrack.tracker.video import open_frames  # noqa: E402
+from cranktrack.synthetic.bounds import marker_crb_px
+from cranktrack.synthetic.scene import RenderSettings
+from cranktrack.tracker.markers import DEFAULT_MARKERS, choose_blob, find_blobs
+from cranktrack.tracker.refine import fit_disc, local_coverage, weighted_centroid
+from cranktrack.tracker.track import _patch, refine, track
+from cranktrack.tracker.video import open_frames
 
 BASE = {"size": (1280, 720), "fps": 30.0, "seconds": 4.0, "seed": 3}
 CASES = {
@@ -60,7 +62,7 @@ def candidates(rgb, spec, radius):
     alpha, _ = local_coverage(patch, x0, y0, (wc.x, wc.y), radius)
     wc = weighted_centroid(alpha, x0, y0, (wc.x, wc.y), radius)
     out["weighted centroid"] = (wc.x, wc.y, wc.sigma)
-    c = refine(rgb, (blob.x, blob.y), radius)
+    c, _ = refine(rgb, (blob.x, blob.y), radius)
     out["disc fit"] = (c.x, c.y, c.sigma)
     grey = cv2.cvtColor(np.ascontiguousarray(patch), cv2.COLOR_RGB2GRAY)
     circles = cv2.HoughCircles(grey, cv2.HOUGH_GRADIENT, dp=1, minDist=radius,
@@ -96,35 +98,43 @@ def main() -> None:
               f"({time.perf_counter() - t0:.1f} s)")
         print(f"{'method':20s} " + " ".join(f"{m:>9s}" for m in "ABC")
               + "   (2-D RMS error, px)")
-        for method in ("mask centroid", "weighted centroid", "disc fit", "HoughCircles"):
+        tracked = track(open_frames(files.video)).tracks
+        for m in "ABC":
+            for _, row in tracked.iterrows():
+                tr = truth.iloc[int(row["frame"])]
+                tx, ty = tr[f"{m}_x_px"], tr[f"{m}_y_px"]
+                errs.setdefault(("tracker (following)", m), []).append(
+                    (row[f"{m}_x_px"] - tx, row[f"{m}_y_px"] - ty, row[f"{m}_sigma_px"], tx, ty))
+        for method in ("mask centroid", "weighted centroid", "disc fit", "HoughCircles",
+                       "tracker (following)"):
             vals = []
             for m in "ABC":
                 e = np.array(errs[(method, m)], float)
                 ok = np.isfinite(e[:, 0])
                 vals.append(np.sqrt(np.mean(e[ok, 0] ** 2 + e[ok, 1] ** 2)))
             print(f"{method:20s} " + " ".join(f"{v:9.4f}" for v in vals))
-        for method in ("weighted centroid", "disc fit"):
+        for method in ("weighted centroid", "disc fit", "tracker (following)"):
             parts = []
             for m in "ABC":
                 e = np.array(errs[(method, m)], float)
                 rms_axis = np.sqrt(np.mean(np.concatenate([e[:, 0], e[:, 1]]) ** 2))
                 parts.append(f"{m}: σ {np.mean(e[:, 2]):.4f} vs err {rms_axis:.4f}")
             print(f"reported per-axis σ, {method}: " + "; ".join(parts))
-        e = np.concatenate([np.array(errs[("disc fit", m)], float) for m in "ABC"])
+        e = np.concatenate([np.array(errs[("tracker (following)", m)], float) for m in "ABC"])
         frac = np.concatenate([e[:, 3] % 1.0, e[:, 4] % 1.0])
         err = np.concatenate([e[:, 0], e[:, 1]])
         bins = np.minimum((frac * 4).astype(int), 3)
-        print("disc fit bias per ¼-pixel bin of the true fractional position (px): "
+        print("tracker bias per ¼-pixel bin of the true fractional position (px): "
               + " ".join(f"{np.mean(err[bins == k]):+.4f}" for k in range(4)))
         if settings.noise_dn and settings.lossless:
             pts = {m: np.array([truth[f"{m}_x_px"][0], truth[f"{m}_y_px"][0]]) for m in "ABC"}
             for m in "ABC":
                 full, chrom = marker_crb_px(pts, m, settings.size, meta["camera"]["px_per_mm"],
                                             settings.noise_dn)
-                e = np.array(errs[("disc fit", m)], float)
+                e = np.array(errs[("tracker (following)", m)], float)
                 rms_axis = np.sqrt(np.mean(np.concatenate([e[:, 0], e[:, 1]]) ** 2))
                 print(f"CRB {m}: full RGB {full:.4f} px, chroma only {chrom:.4f} px per axis; "
-                      f"disc fit {rms_axis:.4f} px per axis = {rms_axis / full:.2f}× full, "
+                      f"tracker {rms_axis:.4f} px per axis = {rms_axis / full:.2f}× full, "
                       f"{rms_axis / chrom:.2f}× chroma")
 
 

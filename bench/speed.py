@@ -21,11 +21,11 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import scene  # noqa: E402
+from common import scene
 
-from cranktrack.synthetic.scene import RenderSettings  # noqa: E402
-from cranktrack.tracker.track import track  # noqa: E402
-from cranktrack.tracker.video import open_frames  # noqa: E402
+from cranktrack.synthetic.scene import RenderSettings
+from cranktrack.tracker.track import track
+from cranktrack.tracker.video import open_frames
 
 
 def decode_only(path: Path) -> tuple[int, float]:

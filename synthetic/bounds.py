@@ -38,8 +38,9 @@ def marker_crb_px(points_px: dict[str, NDArray[np.float64]], name: str, size: tu
         draw_capsule(img, centre, centre, r, style.markers[name], style.supersample)
         return img[y0 : y0 + n, x0 : x0 + n].astype(np.float64)
 
-    dx = (patch(c + [h, 0]) - patch(c - [h, 0])) / (2 * h)
-    dy = (patch(c + [0, h]) - patch(c - [0, h])) / (2 * h)
+    ex, ey = np.array([h, 0.0]), np.array([0.0, h])
+    dx = (patch(c + ex) - patch(c - ex)) / (2 * h)
+    dy = (patch(c + ey) - patch(c - ey)) / (2 * h)
 
     def bound(ax: NDArray, ay: NDArray) -> float:
         D = np.stack([ax.ravel(), ay.ravel()], axis=1)

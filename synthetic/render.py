@@ -43,6 +43,9 @@ class Style:
     crank_half_width_mm: float = 1.4
     wire_half_width_mm: float = 0.25
     supersample: int = 4
+    #: Per-channel gain of the light (1, 1, 1 is neutral); e.g. (1.15, 1.0, 0.8) is a
+    #: warm, tungsten-like cast that shifts every hue the camera sees.
+    illuminant: RGB = (1.0, 1.0, 1.0)
 
 
 def capsule_coverage(
@@ -162,6 +165,8 @@ def render_frame(
         if name in points_px:
             p = np.asarray(points_px[name], dtype=float)
             draw_capsule(img, p, p, r, colour, S)
+    if style.illuminant != (1.0, 1.0, 1.0):
+        img *= np.asarray(style.illuminant, dtype=np.float32)
     return img
 
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -66,10 +66,14 @@ def render_scene(
     style: Style | None = None,
     camera: Camera | None = None,
     on_frame: Callable[[int, int], None] | None = None,
+    hidden: dict[str, Iterable[int]] | None = None,
 ) -> SceneFiles:
     """Render ``scenario`` and write the video, its truth and its description.
 
-    ``on_frame(i, n)`` is called after each frame (for a progress bar).
+    ``hidden`` maps a marker name to the frames in which it is not drawn
+    (covered, or absent); its truth there keeps the position but has
+    ``_ok = False``. ``on_frame(i, n)`` is called after each frame (for a
+    progress bar).
     """
     style = style or Style()
     folder = ensure_dir(out_dir)
@@ -78,13 +82,18 @@ def render_scene(
     t = np.arange(n) / settings.fps
     motion = scenario.motion(t)
     truth = truth_table(motion, camera)
+    hide = {k: set(v) for k, v in (hidden or {}).items()}
+    for name, frames in hide.items():
+        truth.loc[truth["frame"].isin(frames), f"{name}_ok"] = False
     rng = np.random.default_rng(settings.seed)
     video = folder / "video.mp4"
     with VideoWriter(video, *settings.size, settings.fps, settings.lossless,
                      settings.crf) as writer:
         for i in range(n):
             pts = {k: camera.project(v[i]) for k, v in motion.points_mm.items()}
-            img = render_frame(pts, settings.size, camera.px_per_mm, style)
+            shown = Style(**{**style.__dict__, "markers": {
+                k: c for k, c in style.markers.items() if i not in hide.get(k, ())}})
+            img = render_frame(pts, settings.size, camera.px_per_mm, shown)
             writer.write(to_uint8(img, settings.noise_dn, rng), float(t[i]))
             if on_frame:
                 on_frame(i + 1, n)
@@ -105,7 +114,9 @@ def render_scene(
             "marker_radius_px": style.marker_radius_mm * camera.px_per_mm,
             "markers_rgb": style.markers,
             "background_rgb": style.background,
+            "illuminant": style.illuminant,
         },
+        "hidden": {k: sorted(v) for k, v in hide.items()},
         "effects": [],
     }
     scene_path = write_json_atomic(folder / "scene.json", scene)

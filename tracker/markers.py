@@ -135,6 +135,42 @@ def choose_blob(blobs: list[Blob], expected_area: float | None = None,
     return max(good, key=lambda b: b.area), "ok"
 
 
+def white_balance_gains(rgb: NDArray[np.uint8]) -> NDArray[np.float32]:
+    """Per-channel gains that make the frame's median colour grey.
+
+    The board and links fill most of a frame and are near-neutral, so a
+    colour cast of the light shows in the median; dividing it out restores
+    the hues the default colour windows expect. Sub-sampled for speed.
+    """
+    med = np.median(rgb[::4, ::4].reshape(-1, 3), axis=0).astype(np.float32)
+    med = np.maximum(med, 1.0)
+    return (med.mean() / med).astype(np.float32)
+
+
+def balanced_hsv(rgb: NDArray[np.uint8], gains: NDArray[np.float32] | None) -> NDArray[np.uint8]:
+    """HSV of ``rgb`` after per-channel white-balance ``gains``."""
+    img = np.ascontiguousarray(rgb)
+    if gains is not None:
+        img = cv2.transform(img, np.diag(gains.astype(np.float64)))
+    return cv2.cvtColor(img, cv2.COLOR_RGB2HSV)
+
+
+def acquire(hsv: NDArray[np.uint8], spec: MarkerSpec, expected_area: float | None = None,
+            near: tuple[float, float] | None = None) -> tuple[Blob | None, str]:
+    """Full-frame search for ``spec``'s marker, over a ladder of saturation floors.
+
+    A marker touching a faintly tinted background can merge with it at the
+    user's floor and fail the shape test; at a higher floor it stands alone.
+    All candidates from all floors compete in :func:`choose_blob`.
+    """
+    blobs: list[Blob] = []
+    for extra in (0.0, 0.15, 0.3):
+        floor = min(spec.min_saturation + extra, 0.9)
+        blobs += find_blobs(hsv, MarkerSpec(spec.name, spec.hue_deg, spec.hue_tol_deg, floor,
+                                            spec.min_value, spec.min_area_px))
+    return choose_blob(blobs, expected_area, near)
+
+
 def learn_spec(spec: MarkerSpec, rgb_patch: NDArray[np.uint8], centre: tuple[float, float],
                radius: float, x0: int, y0: int) -> MarkerSpec:
     """A spec re-centred on the hue actually seen in the marker's middle.

@@ -63,6 +63,8 @@ class Centre:
     rms_residual: float = np.nan
     #: Fitted coverage gain: ≈ 1 for a whole marker of the learned colour.
     gain: float = np.nan
+    #: All fitted parameters (cx, cy, r, s, a, b), to warm-start the next frame.
+    params: tuple[float, ...] | None = None
 
 
 def weighted_centroid(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
@@ -119,14 +121,18 @@ def _disc_model(params: NDArray, xx: NDArray, yy: NDArray) -> tuple[NDArray, NDA
 
 
 def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
-             radius: float, iterations: int = 8, tol_px: float = 1e-4) -> Centre:
+             radius: float, iterations: int = 8, tol_px: float = 1e-3,
+             init: tuple[float, ...] | None = None) -> Centre:
     """Gauss–Newton fit of a blurred disc to a coverage patch.
 
     The model is ``b + a·Φ((r − d)/s)`` with ``d`` the distance to the centre
     and ``Φ`` the normal CDF: a disc whose edge is blurred by a Gaussian of
     width ``s`` (area sampling gives s ≈ 0.3 px; H.264's chroma subsampling
     more). Only pixels within ``radius + 3`` px of the guess enter the fit.
-    σ of the centre is ``√(RSS/(n−6) · (JᵀJ)⁻¹)``.
+    σ of the centre is ``√(RSS/(n−6) · (JᵀJ)⁻¹)``. ``init`` carries the
+    previous frame's (r, s, a, b) (or a full parameter tuple) so the fit
+    starts near its answer; it stops when the centre moves less than
+    ``tol_px``.
     """
     h, w = alpha.shape
     yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
@@ -135,7 +141,8 @@ def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
     alpha = np.asarray(alpha, np.float64)
     use = ((xx - guess[0]) ** 2 + (yy - guess[1]) ** 2 <= (radius + 3.0) ** 2) & np.isfinite(alpha)
     X, Y, A = xx[use], yy[use], alpha[use]
-    p = np.array([guess[0], guess[1], radius, 0.5, 1.0, 0.0])
+    shape = (radius, 0.5, 1.0, 0.0) if init is None else tuple(init)[-4:]
+    p = np.array([guess[0], guess[1], *shape], dtype=np.float64)
     for _ in range(iterations):
         model, J = _disc_model(p, X, Y)
         res = A - model
@@ -160,36 +167,39 @@ def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
     ok = bool(np.all(np.isfinite(p)) and moved < radius and 0 < p[2] < 3 * radius)
     sigma = float(np.sqrt(0.5 * (cov[0, 0] + cov[1, 1])))
     return Centre(float(p[0]), float(p[1]), sigma, float(p[2]), ok, float(np.sqrt(s2)),
-                  float(p[4]))
+                  float(p[4]), tuple(float(v) for v in p))
 
 
 def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, float],
-                   radius: float, space: str = "chroma"
+                   radius: float, marker: NDArray | None = None
                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Coverage α from RGB unmixing against a per-pixel background.
+    """Coverage α by unmixing chroma against a per-pixel background.
 
     Each pixel within ``radius + 2`` px of ``centre`` is unmixed as
-    ``p = α·m + (1 − α)·b`` where ``m`` is the marker colour (median of the
-    pixels within 0.6·radius) and ``b`` the background along the same ray
-    from the centre, sampled just outside the disc (``radius`` + 3…5 px).
-    Links and the wire leave a marker radially, so the sample sees what lies
-    under the marker's edge; uneven light is followed too. Pixels farther out
-    are NaN.
+    ``q = α·m + (1 − α)·b`` in the chroma plane, where ``m`` is the marker's
+    chroma and ``b`` the background's along the same ray from the centre,
+    sampled just outside the disc (``radius`` + 3…5 px). Links and the wire
+    leave a marker radially, so the sample sees what lies under the marker's
+    edge; uneven light is followed too. Pixels farther out are NaN.
 
-    Returns ``(alpha, marker_rgb)``.
+    ``marker`` is the learned marker chroma; without it the median chroma of
+    the pixels within 0.6·radius is used (only right when the marker is
+    known to be there: at acquisition).
+
+    Returns ``(alpha, marker_chroma_seen)``: the second is the median chroma
+    of the middle of the patch, for following slow colour drift.
     """
     import cv2
 
-    P = np.asarray(patch_rgb, dtype=np.float32)
-    if space == "chroma":
-        P = np.ascontiguousarray(chroma(P))
+    P = np.ascontiguousarray(chroma(patch_rgb))
     h, w = P.shape[:2]
     yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
     dx = xx + np.float32(x0 - centre[0])
     dy = yy + np.float32(y0 - centre[1])
     rho = np.sqrt(dx * dx + dy * dy) + np.float32(1e-6)
     inner = rho <= 0.6 * radius
-    m = np.median(P[inner], axis=0) if inner.sum() >= 3 else P[int(h / 2), int(w / 2)]
+    seen = np.median(P[inner], axis=0) if inner.sum() >= 3 else P[int(h / 2), int(w / 2)]
+    m = seen if marker is None else np.asarray(marker, np.float32)
     ux, uy = dx / rho, dy / rho
     cx, cy = centre[0] - x0, centre[1] - y0
     b = np.zeros_like(P)
@@ -203,4 +213,4 @@ def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float
     alpha = ((P - b) * d).sum(axis=-1) / np.maximum(denom, 1e-6)
     alpha = alpha.astype(np.float64)
     alpha[rho > radius + 2.0] = np.nan
-    return alpha, m
+    return alpha, seen

@@ -21,11 +21,13 @@ from numpy.typing import NDArray
 
 from cranktrack.tracker.markers import (
     DEFAULT_MARKERS,
-    Blob,
     MarkerSpec,
+    acquire,
+    balanced_hsv,
     choose_blob,
     find_blobs,
     learn_spec,
+    white_balance_gains,
 )
 from cranktrack.tracker.refine import Centre, fit_disc, local_coverage, weighted_centroid
 from cranktrack.tracker.video import FrameSource, timing_report
@@ -47,6 +49,14 @@ class _MarkerState:
     radius: float | None = None
     area: float | None = None
     history: list[tuple[float, float, float]] = field(default_factory=list)  # (t, x, y)
+    shape: tuple[float, ...] | None = None  # last fitted disc parameters
+    marker: NDArray | None = None  # learned marker chroma
+
+    def remember(self, centre: Centre, seen: NDArray | None) -> None:
+        """Keep the fitted shape and follow slow drift of the marker's colour."""
+        self.shape = centre.params
+        if seen is not None:
+            self.marker = seen if self.marker is None else 0.9 * self.marker + 0.1 * seen
 
     def predict(self, t: float) -> tuple[float, float] | None:
         """Constant-velocity prediction from the last two fixes (px)."""
@@ -77,20 +87,40 @@ def _patch(rgb: NDArray[np.uint8], cx: float, cy: float, half: float
     return rgb[y0:y1, x0:x1], x0, y0
 
 
-def refine(rgb: NDArray[np.uint8], guess: tuple[float, float], radius: float) -> Centre:
+def refine(rgb: NDArray[np.uint8], guess: tuple[float, float], radius: float,
+           marker: NDArray | None = None, init: tuple[float, ...] | None = None
+           ) -> tuple[Centre, NDArray | None]:
     """Sub-pixel centre of a marker near ``guess`` (see :mod:`.refine`).
 
-    Chroma unmixing against a ring background around the guess, a weighted
-    centroid, then the ring re-centred there and a blurred-disc fit.
+    Chroma unmixing against a ring background, then a blurred-disc fit. A
+    rough guess (an acquisition: no ``init``) is first improved by a
+    weighted centroid and the ring re-centred there; a prediction from the
+    previous frames (with ``init``, that frame's fitted shape) goes straight
+    to the fit. ``marker`` is the learned marker chroma (None at
+    acquisition). Returns the centre and the chroma seen in its middle.
     """
     patch, x0, y0 = _patch(rgb, guess[0], guess[1], radius + 9)
-    alpha, _ = local_coverage(patch, x0, y0, guess, radius)
-    c = weighted_centroid(alpha, x0, y0, guess, radius, noise_alpha=0.05)
-    if not c.ok:
-        return c
-    alpha, _ = local_coverage(patch, x0, y0, (c.x, c.y), radius)
-    fit = fit_disc(alpha, x0, y0, (c.x, c.y), radius)
-    return fit if fit.ok else Centre(c.x, c.y, c.sigma, c.radius, True)
+    alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker)
+    c = None
+    if init is None:
+        c = weighted_centroid(alpha, x0, y0, guess, radius, noise_alpha=0.05)
+        if not c.ok:
+            return c, seen
+        guess = (c.x, c.y)
+        alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker)
+    fit = fit_disc(alpha, x0, y0, guess, radius, init=init)
+    for _ in range(3):
+        # The background ring must be centred on the marker; a guess more than
+        # half a pixel off (a prediction when the motion changes) is redone.
+        if not fit.ok or np.hypot(fit.x - guess[0], fit.y - guess[1]) <= 0.5:
+            break
+        guess = (fit.x, fit.y)
+        patch, x0, y0 = _patch(rgb, guess[0], guess[1], radius + 9)
+        alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker)
+        fit = fit_disc(alpha, x0, y0, guess, radius, init=fit.params)
+    if fit.ok or c is None:
+        return fit, seen
+    return Centre(c.x, c.y, c.sigma, c.radius, True), seen
 
 
 def _plausible(c: Centre, guess: tuple[float, float], radius: float) -> bool:
@@ -112,31 +142,37 @@ def _locate(rgb: NDArray[np.uint8], state: _MarkerState, t: float, hsv_cache: di
             # Following: refine straight from the prediction; the colour search
             # is only needed when that fails (fast motion, occlusion, a jump).
             if r + 2 <= pred[0] <= w - r - 3 and r + 2 <= pred[1] <= h - r - 3:
-                centre = refine(rgb, pred, r)
+                centre, seen = refine(rgb, pred, r, state.marker, init=state.shape)
                 if _plausible(centre, pred, r):
+                    state.remember(centre, seen)
                     return centre, "ok"
             half = 3.0 * r + 2.0 * state.speed_px() + 4.0
             patch, x0, y0 = _patch(rgb, pred[0], pred[1], half)
-            hsv = cv2.cvtColor(np.ascontiguousarray(patch), cv2.COLOR_RGB2HSV)
+            hsv = balanced_hsv(patch, hsv_cache.get("gains"))
             blob, status = choose_blob(find_blobs(hsv, state.spec, x0, y0), state.area, pred)
     if blob is None:
-        # Lost (or never seen): search the whole frame.
+        # Lost (or never seen): search the whole frame, white-balanced.
         if "full" not in hsv_cache:
-            hsv_cache["full"] = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)
-        blob, full_status = choose_blob(find_blobs(hsv_cache["full"], state.spec), state.area,
-                                        pred)
+            if hsv_cache.get("gains") is None:
+                hsv_cache["gains"] = white_balance_gains(rgb)
+            hsv_cache["full"] = balanced_hsv(rgb, hsv_cache["gains"])
+        blob, full_status = acquire(hsv_cache["full"], state.spec, state.area, pred)
         if blob is None:
             return None, status if status == "out_of_view" else full_status
     radius = state.radius or blob.radius
     if not state.learned:
         patch, x0, y0 = _patch(rgb, blob.x, blob.y, radius + 3)
+        if hsv_cache.get("gains") is not None:
+            patch = cv2.transform(np.ascontiguousarray(patch),
+                                  np.diag(hsv_cache["gains"].astype(np.float64)))
         state.spec = learn_spec(state.spec, patch, (blob.x, blob.y), radius, x0, y0)
         state.learned = True
-    centre = refine(rgb, (blob.x, blob.y), radius)
-    if not centre.ok:
+    centre, seen = refine(rgb, (blob.x, blob.y), radius, state.marker)
+    if not centre.ok or (state.marker is not None and not 0.6 < centre.gain < 1.4):
         return None, "refine_failed"
     if state.radius is None:
         state.radius, state.area = centre.radius, np.pi * centre.radius**2
+    state.remember(centre, seen)
     return centre, "ok"
 
 
@@ -177,12 +213,14 @@ def track(
     from cranktrack.errors import CranktrackError
 
     states = [_MarkerState(spec) for spec in specs]
+    balance: dict = {"gains": None}  # white balance, measured at the first search
     rows: list[list] = []
     for frame in source.frames(prefetch=8):
         row: list = [frame.index, frame.t_s]
-        hsv_cache: dict = {}
+        hsv_cache: dict = balance.copy()
         for st in states:
             centre, status = _locate(frame.rgb, st, frame.t_s, hsv_cache)
+            balance["gains"] = hsv_cache.get("gains")
             if centre is None:
                 row += [np.nan, np.nan, np.nan, False, status]
             else:
