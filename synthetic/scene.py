@@ -11,7 +11,7 @@ import numpy as np
 
 from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic
 from cranktrack.synthetic.camera import Camera
-from cranktrack.synthetic.render import Style, render_frame, to_uint8
+from cranktrack.synthetic.render import Style, draw_capsule, render_frame, to_uint8
 from cranktrack.synthetic.scenarios import SpoolScenario
 from cranktrack.synthetic.truth import truth_table
 from cranktrack.synthetic.video import VideoWriter
@@ -27,6 +27,12 @@ class RenderSettings:
     ``size`` is (width, height) in px, ``fps`` frames per second, ``seconds``
     the clip length, ``noise_dn`` the sensor noise σ in 8-bit digital
     numbers, ``lossless`` picks bit-exact RGB over ordinary H.264 at ``crf``.
+
+    Real-camera conditions: ``exposure_s`` > 0 blurs motion by averaging
+    ``blur_samples`` renders across the exposure (centred on the frame time,
+    which is the time in ``truth.csv``); ``light_gradient`` is a left-to-right
+    change of illumination (fraction of the mean, e.g. 0.3) whose strength
+    sweeps over the clip as ``sin(π·t/seconds)``.
     """
 
     size: tuple[int, int] = (1280, 720)
@@ -36,6 +42,9 @@ class RenderSettings:
     seed: int = 0
     lossless: bool = False
     crf: int = 20
+    exposure_s: float = 0.0
+    blur_samples: int = 7
+    light_gradient: float = 0.0
 
     @property
     def n_frames(self) -> int:
@@ -59,6 +68,38 @@ def scenario_camera(scenario: SpoolScenario, size: tuple[int, int]) -> Camera:
     return Camera.framing(size[0], size[1], lo, hi, fill=0.8)
 
 
+def _expose(scenario: SpoolScenario, camera: Camera, settings: RenderSettings, style: Style,
+            t: float) -> np.ndarray:
+    """One frame; with an exposure, the mean of renders across it (motion blur)."""
+    if settings.exposure_s > 0:
+        times = t + settings.exposure_s * (np.linspace(0, 1, settings.blur_samples) - 0.5)
+    else:
+        times = np.array([t])
+    motion = scenario.motion(times)
+    img = None
+    for j in range(len(times)):
+        pts = {k: camera.project(v[j]) for k, v in motion.points_mm.items()}
+        frame = render_frame(pts, settings.size, camera.px_per_mm, style)
+        img = frame if img is None else img + frame
+    return img / np.float32(len(times))
+
+
+def _draw_cover(img: np.ndarray, centre_px: np.ndarray, radius_px: float) -> None:
+    """A grey strip over the right third of a marker (a finger, a cable)."""
+    x = centre_px[0] + 0.75 * radius_px
+    p0 = np.array([x, centre_px[1] - 2.5 * radius_px])
+    p1 = np.array([x, centre_px[1] + 2.5 * radius_px])
+    draw_capsule(img, p0, p1, 0.5 * radius_px, (95.0, 92.0, 90.0), 4)
+
+
+def _light(settings: RenderSettings, t: float) -> np.ndarray:
+    """Multiplicative illumination: a horizontal ramp whose strength sweeps in time."""
+    w = settings.size[0]
+    g = settings.light_gradient * np.sin(np.pi * t / max(settings.seconds, 1e-9))
+    ramp = 1.0 + g * (np.arange(w, dtype=np.float32) / max(w - 1, 1) - 0.5)
+    return ramp[None, :, None].astype(np.float32)
+
+
 def render_scene(
     scenario: SpoolScenario,
     out_dir: str | os.PathLike,
@@ -67,13 +108,15 @@ def render_scene(
     camera: Camera | None = None,
     on_frame: Callable[[int, int], None] | None = None,
     hidden: dict[str, Iterable[int]] | None = None,
+    covered: dict[str, Iterable[int]] | None = None,
 ) -> SceneFiles:
     """Render ``scenario`` and write the video, its truth and its description.
 
     ``hidden`` maps a marker name to the frames in which it is not drawn
     (covered, or absent); its truth there keeps the position but has
-    ``_ok = False``. ``on_frame(i, n)`` is called after each frame (for a
-    progress bar).
+    ``_ok = False``. ``covered`` maps a marker name to frames in which a grey
+    strip hides about a third of it (the truth stays ``_ok``).
+    ``on_frame(i, n)`` is called after each frame (for a progress bar).
     """
     style = style or Style()
     folder = ensure_dir(out_dir)
@@ -83,6 +126,7 @@ def render_scene(
     motion = scenario.motion(t)
     truth = truth_table(motion, camera)
     hide = {k: set(v) for k, v in (hidden or {}).items()}
+    cover = {k: set(v) for k, v in (covered or {}).items()}
     for name, frames in hide.items():
         truth.loc[truth["frame"].isin(frames), f"{name}_ok"] = False
     rng = np.random.default_rng(settings.seed)
@@ -90,10 +134,15 @@ def render_scene(
     with VideoWriter(video, *settings.size, settings.fps, settings.lossless,
                      settings.crf) as writer:
         for i in range(n):
-            pts = {k: camera.project(v[i]) for k, v in motion.points_mm.items()}
             shown = Style(**{**style.__dict__, "markers": {
                 k: c for k, c in style.markers.items() if i not in hide.get(k, ())}})
-            img = render_frame(pts, settings.size, camera.px_per_mm, shown)
+            img = _expose(scenario, camera, settings, shown, float(t[i]))
+            for name, frames in cover.items():
+                if i in frames:
+                    _draw_cover(img, camera.project(motion.points_mm[name][i]),
+                                style.marker_radius_mm * camera.px_per_mm)
+            if settings.light_gradient:
+                img *= _light(settings, float(t[i]))
             writer.write(to_uint8(img, settings.noise_dn, rng), float(t[i]))
             if on_frame:
                 on_frame(i + 1, n)
@@ -108,6 +157,8 @@ def render_scene(
             "codec": "libx264rgb qp0 (lossless)" if settings.lossless
             else f"libx264 yuv420p crf {settings.crf}",
             "supersample": style.supersample,
+            "exposure_s": settings.exposure_s,
+            "light_gradient": settings.light_gradient,
         },
         "style": {
             "marker_radius_mm": style.marker_radius_mm,
@@ -117,6 +168,7 @@ def render_scene(
             "illuminant": style.illuminant,
         },
         "hidden": {k: sorted(v) for k, v in hide.items()},
+        "covered": {k: sorted(v) for k, v in cover.items()},
         "effects": [],
     }
     scene_path = write_json_atomic(folder / "scene.json", scene)

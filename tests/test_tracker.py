@@ -25,11 +25,11 @@ BASE = {"size": (640, 360), "fps": 30.0, "seconds": 2.0, "seed": 2}
 def render(tmp_path_factory):
     made = {}
 
-    def make(name, style=None, hidden=None, **settings):
+    def make(name, style=None, hidden=None, covered=None, **settings):
         if name not in made:
             folder = tmp_path_factory.mktemp(name)
             files = render_scene(SpoolScenario(), folder, RenderSettings(**{**BASE, **settings}),
-                                 style=style, hidden=hidden)
+                                 style=style, hidden=hidden, covered=covered)
             result = track(open_frames(files.video))
             made[name] = (result, pd.read_csv(files.truth), files)
         return made[name]
@@ -91,7 +91,7 @@ def test_marker_covered_for_ten_frames_is_a_gap_then_reacquired(render):
 
 
 def test_marker_never_present_others_still_tracked(render):
-    result, truth, _ = render("no_c", noise_dn=2.5, hidden={"C": range(60)})
+    result, _, _ = render("no_c", noise_dn=2.5, hidden={"C": range(60)})
     assert result.found_fraction["C"] == 0.0
     assert (result.tracks["C_status"] == "not_found").all()
     assert result.found_fraction["A"] == result.found_fraction["B"] == 1.0
@@ -139,3 +139,26 @@ def test_colour_names_and_hues():
 
     with pytest.raises(CranktrackError, match="unknown marker colour"):
         MarkerSpec.from_colour("W", "sparkly")
+
+
+def test_partly_covered_marker_is_a_gap_not_a_biased_centre(render):
+    result, truth, _ = render("cover", noise_dn=2.5, covered={"B": range(20, 30)})
+    t = result.tracks
+    assert (t.loc[20:29, "B_status"] == "partly_covered").all()
+    assert t.loc[:19, "B_ok"].all() and t.loc[30:, "B_ok"].all()
+    assert np.sqrt(np.mean(_errors(t, truth, "B") ** 2)) < 0.15
+
+
+@pytest.mark.parametrize("name,settings", [
+    ("blur", {"exposure_s": 1 / 60}),  # half the frame interval open
+    ("gradient", {"light_gradient": 0.5}),  # ±25 % light across the frame, sweeping
+])
+def test_real_camera_conditions(render, name, settings):
+    result, truth, _ = render(name, noise_dn=2.5, **settings)
+    for m in "ABC":
+        assert result.found_fraction[m] == 1.0, m
+        e = _errors(result.tracks, truth, m)
+        assert np.sqrt(np.mean(e**2)) < 0.15, m
+        # σ stays honest: no error beyond 5σ (per-axis σ, 2-D error).
+        s = result.tracks.loc[e.index, f"{m}_sigma_px"]
+        assert np.max(e / (np.sqrt(2) * s)) < 5.0, m

@@ -107,17 +107,26 @@ def weighted_centroid(alpha: NDArray, x0: float, y0: float, guess: tuple[float, 
     return Centre(cx, cy, float(np.sqrt(var)), float(np.sqrt(total / np.pi)), True)
 
 
-def _disc_model(params: NDArray, xx: NDArray, yy: NDArray) -> tuple[NDArray, NDArray]:
+def _disc_model(params: NDArray, xx: NDArray, yy: NDArray, J: NDArray) -> NDArray:
+    """Model values; fills the Jacobian ``J`` (n, 6) in place."""
     cx, cy, r, s, a, b = params
     dx, dy = xx - cx, yy - cy
     d = np.sqrt(dx * dx + dy * dy) + 1e-9
     z = (r - d) / s
-    phi = 0.5 * (1.0 + erf(z / np.sqrt(2.0)))
-    dens = np.exp(-0.5 * z * z) / np.sqrt(2.0 * np.pi)  # dΦ/dz
-    model = b + a * phi
-    g = a * dens / s
-    J = np.stack([g * dx / d, g * dy / d, g, -g * z, phi, np.ones_like(phi)], axis=-1)
-    return model, J
+    phi = 0.5 * (1.0 + erf(z * _SQRT_HALF))
+    g = (a / s) * _INV_SQRT_2PI * np.exp(-0.5 * z * z)  # a · dΦ/dz / s
+    gd = g / d
+    J[:, 0] = gd * dx
+    J[:, 1] = gd * dy
+    J[:, 2] = g
+    J[:, 3] = -g * z
+    J[:, 4] = phi
+    J[:, 5] = 1.0
+    return b + a * phi
+
+
+_SQRT_HALF = np.sqrt(0.5)
+_INV_SQRT_2PI = 1.0 / np.sqrt(2.0 * np.pi)
 
 
 def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
@@ -135,17 +144,18 @@ def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
     ``tol_px``.
     """
     h, w = alpha.shape
-    yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
-    xx += x0
-    yy += y0
+    xs = np.arange(w, dtype=np.float64) + x0
+    ys = np.arange(h, dtype=np.float64) + y0
     alpha = np.asarray(alpha, np.float64)
-    use = ((xx - guess[0]) ** 2 + (yy - guess[1]) ** 2 <= (radius + 3.0) ** 2) & np.isfinite(alpha)
-    X, Y, A = xx[use], yy[use], alpha[use]
+    use = (((xs[None, :] - guess[0]) ** 2 + (ys[:, None] - guess[1]) ** 2 <= (radius + 3.0) ** 2)
+           & np.isfinite(alpha))
+    iy, ix = np.nonzero(use)
+    X, Y, A = xs[ix], ys[iy], alpha[use]
+    J = np.empty((A.size, 6))
     shape = (radius, 0.5, 1.0, 0.0) if init is None else tuple(init)[-4:]
     p = np.array([guess[0], guess[1], *shape], dtype=np.float64)
     for _ in range(iterations):
-        model, J = _disc_model(p, X, Y)
-        res = A - model
+        res = A - _disc_model(p, X, Y, J)
         JtJ = J.T @ J
         try:
             step = np.linalg.solve(JtJ + 1e-9 * np.eye(6), J.T @ res)
@@ -155,8 +165,7 @@ def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
         p[3] = max(p[3], 0.05)
         if abs(step[0]) < tol_px and abs(step[1]) < tol_px:
             break
-    model, J = _disc_model(p, X, Y)
-    res = A - model
+    res = A - _disc_model(p, X, Y, J)
     dof = max(A.size - 6, 1)
     s2 = float(res @ res) / dof
     try:
@@ -193,21 +202,20 @@ def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float
 
     P = np.ascontiguousarray(chroma(patch_rgb))
     h, w = P.shape[:2]
-    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
-    dx = xx + np.float32(x0 - centre[0])
-    dy = yy + np.float32(y0 - centre[1])
+    dx = (np.arange(w, dtype=np.float32) + np.float32(x0 - centre[0]))[None, :]
+    dy = (np.arange(h, dtype=np.float32) + np.float32(y0 - centre[1]))[:, None]
     rho = np.sqrt(dx * dx + dy * dy) + np.float32(1e-6)
     inner = rho <= 0.6 * radius
     seen = np.median(P[inner], axis=0) if inner.sum() >= 3 else P[int(h / 2), int(w / 2)]
     m = seen if marker is None else np.asarray(marker, np.float32)
     ux, uy = dx / rho, dy / rho
-    cx, cy = centre[0] - x0, centre[1] - y0
-    b = np.zeros_like(P)
-    for k in (3.0, 4.0, 5.0):
-        mx = (cx + (radius + k) * ux).astype(np.float32)
-        my = (cy + (radius + k) * uy).astype(np.float32)
-        b += cv2.remap(P, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    b /= 3.0
+    cx, cy = np.float32(centre[0] - x0), np.float32(centre[1] - y0)
+    # One remap samples the three ring radii, laid side by side.
+    ks = np.array([3.0, 4.0, 5.0], dtype=np.float32)[:, None, None] + np.float32(radius)
+    mx = np.concatenate(list(cx + ks * ux), axis=1)
+    my = np.concatenate(list(cy + ks * uy), axis=1)
+    ring = cv2.remap(P, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    b = (ring[:, :w] + ring[:, w : 2 * w] + ring[:, 2 * w :]) / np.float32(3.0)
     d = m[None, None, :] - b
     denom = (d * d).sum(axis=-1)
     alpha = ((P - b) * d).sum(axis=-1) / np.maximum(denom, 1e-6)

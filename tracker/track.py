@@ -39,7 +39,13 @@ STATUSES = {
     "rejected": "blobs of the colour, but none of the marker's size and shape",
     "out_of_view": "the predicted position is outside the image",
     "refine_failed": "a blob was found but no sub-pixel centre could be fitted",
+    "partly_covered": "the marker is there but does not look like a whole disc "
+                      "(its fit residual is far above usual), so its centre is not trusted",
 }
+
+#: A fit whose residual exceeds this many times the marker's usual residual is
+#: not a whole disc (partly covered, or something of its colour touching it).
+RESIDUAL_LIMIT = 1.6
 
 
 @dataclass
@@ -51,9 +57,21 @@ class _MarkerState:
     history: list[tuple[float, float, float]] = field(default_factory=list)  # (t, x, y)
     shape: tuple[float, ...] | None = None  # last fitted disc parameters
     marker: NDArray | None = None  # learned marker chroma
+    residual: float | None = None  # usual RMS residual of the disc fit
+
+    def whole(self, centre: Centre) -> bool:
+        """Does the fit look like the whole marker: its usual size and residual?"""
+        if self.radius is not None and abs(centre.radius - self.radius) > 0.15 * self.radius:
+            return False
+        if self.residual is None or not np.isfinite(centre.rms_residual):
+            return True
+        return centre.rms_residual <= RESIDUAL_LIMIT * max(self.residual, 0.01)
 
     def remember(self, centre: Centre, seen: NDArray | None) -> None:
         """Keep the fitted shape and follow slow drift of the marker's colour."""
+        if np.isfinite(centre.rms_residual):
+            self.residual = (centre.rms_residual if self.residual is None
+                             else 0.9 * self.residual + 0.1 * centre.rms_residual)
         self.shape = centre.params
         if seen is not None:
             self.marker = seen if self.marker is None else 0.9 * self.marker + 0.1 * seen
@@ -124,9 +142,8 @@ def refine(rgb: NDArray[np.uint8], guess: tuple[float, float], radius: float,
 
 
 def _plausible(c: Centre, guess: tuple[float, float], radius: float) -> bool:
-    """A fit from a prediction that really is the marker: whole, right size, nearby."""
-    return (c.ok and 0.6 < c.gain < 1.4 and abs(c.radius - radius) < 0.25 * radius
-            and np.hypot(c.x - guess[0], c.y - guess[1]) < radius)
+    """A fit from a prediction that found the marker's colour, near the prediction."""
+    return c.ok and 0.6 < c.gain < 1.4 and np.hypot(c.x - guess[0], c.y - guess[1]) < radius
 
 
 def _locate(rgb: NDArray[np.uint8], state: _MarkerState, t: float, hsv_cache: dict
@@ -144,6 +161,8 @@ def _locate(rgb: NDArray[np.uint8], state: _MarkerState, t: float, hsv_cache: di
             if r + 2 <= pred[0] <= w - r - 3 and r + 2 <= pred[1] <= h - r - 3:
                 centre, seen = refine(rgb, pred, r, state.marker, init=state.shape)
                 if _plausible(centre, pred, r):
+                    if not state.whole(centre):
+                        return None, "partly_covered"
                     state.remember(centre, seen)
                     return centre, "ok"
             half = 3.0 * r + 2.0 * state.speed_px() + 4.0
@@ -170,6 +189,8 @@ def _locate(rgb: NDArray[np.uint8], state: _MarkerState, t: float, hsv_cache: di
     centre, seen = refine(rgb, (blob.x, blob.y), radius, state.marker)
     if not centre.ok or (state.marker is not None and not 0.6 < centre.gain < 1.4):
         return None, "refine_failed"
+    if not state.whole(centre):
+        return None, "partly_covered"
     if state.radius is None:
         state.radius, state.area = centre.radius, np.pi * centre.radius**2
     state.remember(centre, seen)
