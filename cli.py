@@ -134,7 +134,8 @@ def _track(args: argparse.Namespace, video: Path, out: Path):
             bar.refresh()
 
         return track_run(video, out, known, specs, fps=getattr(args, "fps_images", None),
-                         window_s=args.window_s, on_start=start,
+                         window_s=args.window_s,
+                         fill_gaps_frames=getattr(args, "fill_gaps", 0), on_start=start,
                          on_frame=lambda i: bar.update(1))
 
 
@@ -239,6 +240,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--marker", action="append", metavar="NAME=COLOUR",
                    help="marker colour (red, green, blue, yellow, … or a hue in degrees); "
                         "repeat per marker. Defaults: A=green B=red C=blue")
+    p.add_argument("--fill-gaps", type=int, default=0, metavar="N",
+                   help="interpolate gaps of up to N frames, flagged as interpolated (0: off)")
     p.add_argument("--fps", dest="fps_images", type=_positive,
                    help="frame rate of an image folder (videos use their own timestamps)")
     p.set_defaults(func=cmd_track)

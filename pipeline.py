@@ -24,6 +24,7 @@ from cranktrack.calibration.known_length import (
 from cranktrack.errors import CranktrackError
 from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic
 from cranktrack.kinematics.measured import DEFAULT_WINDOW_S, measure_kinematics
+from cranktrack.tracker.gaps import fill_gaps
 from cranktrack.tracker.markers import DEFAULT_MARKERS, MarkerSpec
 from cranktrack.tracker.track import track
 from cranktrack.tracker.video import open_frames
@@ -59,6 +60,7 @@ def track_run(
     specs: tuple[MarkerSpec, ...] = DEFAULT_MARKERS,
     fps: float | None = None,
     window_s: float = DEFAULT_WINDOW_S,
+    fill_gaps_frames: int = 0,
     on_start: Callable[[int | None], None] | None = None,
     on_frame: Callable[[int], None] | None = None,
 ) -> RunResult:
@@ -67,6 +69,8 @@ def track_run(
     Writes ``tracks.csv`` (pixels, plus plane mm when ``known_length`` is
     given), ``calibration.json`` and ``kinematics.csv`` (only with a scale),
     and ``run.json`` with the provenance and quality figures.
+    ``fill_gaps_frames`` > 0 interpolates gaps up to that many frames long,
+    flagged ``_status = "interpolated"`` (off by default: gaps stay gaps).
     ``on_start(expected_frames)`` and ``on_frame(index)`` report progress.
     """
     source = open_frames(video, fps=fps)
@@ -76,6 +80,8 @@ def track_run(
     result = track(source, specs, on_frame=on_frame)
     tracks = result.tracks
     names = tuple(s.name for s in specs)
+    if fill_gaps_frames > 0:
+        tracks = fill_gaps(tracks, names, fill_gaps_frames)
     warnings = list(result.problems)
     for name, frac in result.found_fraction.items():
         if frac == 0:
@@ -92,7 +98,7 @@ def track_run(
                    "codec": source.codec, "width": source.width, "height": source.height},
         "markers": {s.name: {"hue_deg": s.hue_deg, "hue_tol_deg": s.hue_tol_deg}
                     for s in specs},
-        "tracking": result.to_dict(),
+        "tracking": {**result.to_dict(), "fill_gaps_frames": fill_gaps_frames},
         "warnings": warnings,
     }
     files["run"] = write_json_atomic(folder / "run.json", run_info)

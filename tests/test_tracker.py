@@ -162,3 +162,20 @@ def test_real_camera_conditions(render, name, settings):
         # σ stays honest: no error beyond 5σ (per-axis σ, 2-D error).
         s = result.tracks.loc[e.index, f"{m}_sigma_px"]
         assert np.max(e / (np.sqrt(2) * s)) < 5.0, m
+
+
+def test_gaps_are_filled_only_on_request_and_flagged(render):
+    from cranktrack.tracker.gaps import fill_gaps
+
+    result, truth, _ = render("covered", noise_dn=2.5, hidden={"B": range(25, 35)})
+    t = result.tracks
+    assert t.loc[25:34, "B_x_px"].isna().all()  # the default: gaps stay gaps
+    filled = fill_gaps(t, ("A", "B", "C"), max_frames=10)
+    gap = filled.loc[25:34]
+    assert (gap["B_status"] == "interpolated").all() and not gap["B_ok"].any()
+    err = np.hypot(gap["B_x_px"] - truth.loc[25:34, "B_x_px"],
+                   gap["B_y_px"] - truth.loc[25:34, "B_y_px"])
+    # The flagged σ covers the interpolation's real error here (B moves on a
+    # circle, so a straight line between the ends is off by up to a few px).
+    assert (err < 3 * gap["B_sigma_px"] + 0.1).all()
+    assert fill_gaps(t, ("A", "B", "C"), max_frames=9).loc[25:34, "B_x_px"].isna().all()
