@@ -182,7 +182,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
     measured = run.kinematics
     model = spool_model(d, measured["t_s"].to_numpy())
     t = measured["t_s"].to_numpy()
-    away = (np.abs(t - d.start_s) > args.window_s) & (np.abs(t - d.stop_s) > args.window_s)
+    margin = 2.5 / args.fps  # two frames either side
+    away = (np.abs(t - d.start_s) > margin) & (np.abs(t - d.stop_s) > margin)
     rows = [["quantity", "frames", "RMS error", "max error", "RMS % of peak"]]
     for label, mask in (("all frames", None), ("away from start/stop", away)):
         summary = error_summary(measured, model, mask=mask)
@@ -195,8 +196,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
     print("Measured vs analytic model (eqs. 2.1-2.5 with the spool drive):")
     print(_format_table(rows))
     print(f"rocking angle: measured {rocking_meas:.3f} deg, model {rocking_model:.3f} deg")
-    print(f"('away from start/stop' leaves out ±{args.window_s:g} s around the drive's start "
-          "and stop, where ω steps and any smoothing differentiator lags)")
+    print("('away from start/stop' leaves out the two frames either side of the drive's "
+          "start and stop, where ω steps)")
     print()
     print(f"outputs: {out}")
     print(f"  scene: {files.video.name}, {files.truth.name}, {files.scene.name} in {files.folder}")
@@ -216,8 +217,8 @@ def _add_scene_options(p: argparse.ArgumentParser) -> None:
 def _add_track_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--known-length", metavar="A-C=MM",
                    help="a constant marker distance that sets the scale, e.g. A-C=160.8")
-    p.add_argument("--window-s", type=_positive, default=0.2,
-                   help="differentiator window, s (0.2)")
+    p.add_argument("--window-s", type=_positive, default=None,
+                   help="differentiator window, s (default: chosen from the data)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -251,8 +252,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="output folder (default: a new temporary folder)")
     _add_render_options(p)
     _add_scene_options(p)
-    p.add_argument("--window-s", type=_positive, default=0.2,
-                   help="differentiator window, s (0.2)")
+    p.add_argument("--window-s", type=_positive, default=None,
+                   help="differentiator window, s (default: chosen from the data)")
     p.set_defaults(func=cmd_demo)
     return parser
 

@@ -23,7 +23,7 @@ from cranktrack.calibration.known_length import (
 )
 from cranktrack.errors import CranktrackError
 from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic
-from cranktrack.kinematics.measured import DEFAULT_WINDOW_S, measure_kinematics
+from cranktrack.kinematics.measured import measure_kinematics
 from cranktrack.tracker.gaps import fill_gaps
 from cranktrack.tracker.markers import DEFAULT_MARKERS, MarkerSpec
 from cranktrack.tracker.track import track
@@ -59,7 +59,7 @@ def track_run(
     known_length: tuple[str, str, float] | None,
     specs: tuple[MarkerSpec, ...] = DEFAULT_MARKERS,
     fps: float | None = None,
-    window_s: float = DEFAULT_WINDOW_S,
+    window_s: float | None = None,
     fill_gaps_frames: int = 0,
     on_start: Callable[[int | None], None] | None = None,
     on_frame: Callable[[int], None] | None = None,
@@ -69,7 +69,8 @@ def track_run(
     Writes ``tracks.csv`` (pixels, plus plane mm when ``known_length`` is
     given), ``calibration.json`` and ``kinematics.csv`` (only with a scale),
     and ``run.json`` with the provenance and quality figures.
-    ``fill_gaps_frames`` > 0 interpolates gaps up to that many frames long,
+    ``window_s`` fixes the differentiator's window (s); by default it is
+    chosen from the data. ``fill_gaps_frames`` > 0 interpolates gaps up to that many frames long,
     flagged ``_status = "interpolated"`` (off by default: gaps stay gaps).
     ``on_start(expected_frames)`` and ``on_frame(index)`` report progress.
     """
@@ -119,14 +120,19 @@ def track_run(
         tracks = add_plane_coordinates(tracks, cal, names)
         files["tracks"] = write_csv_atomic(folder / "tracks.csv", tracks)
         if {"A", "B", "C"} <= set(names):
-            kinematics = measure_kinematics(tracks, window_s=window_s)
+            kinematics, info = measure_kinematics(tracks, window_s=window_s)
+            flagged = {k: v["frames_flagged"] for k, v in info.links.items()
+                       if v["frames_flagged"]}
+            for k, n in flagged.items():
+                warnings.append(f"{n} frame(s) where the rigid length {k[:2]} jumps by more "
+                                "than 5σ from its median (rigid_ok is false there)")
             files["kinematics"] = write_csv_atomic(folder / "kinematics.csv", kinematics)
         else:
             raise CranktrackError("kinematics need markers A, B and C; the run tracked only "
                                   + ", ".join(names))
         run_info["calibration"] = {"method": cal.method, "mm_per_px": cal.mm_per_px,
                                    **cal.quality}
-        run_info["kinematics"] = {"window_s": window_s}
+        run_info["kinematics"] = info.to_dict()
         run_info["warnings"] = warnings
         files["run"] = write_json_atomic(folder / "run.json", run_info)
     return RunResult(folder, tracks, kinematics, cal, files, warnings)

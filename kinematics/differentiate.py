@@ -1,11 +1,20 @@
 """Smoothing derivatives of noisy samples on real (possibly uneven) timestamps.
 
-A local polynomial of degree ``order`` is fitted by least squares to the
-``window`` samples around each point (shifted inward at the ends of a
-segment), using the actual sample times. This is Savitzky–Golay filtering
-without the equal-spacing assumption. The estimate at each point is a linear
-combination of the samples, so the 1-σ of independent per-sample errors
-propagates exactly: σ² = Σ cᵢ² σᵢ².
+A local polynomial of degree ``order`` is fitted by least squares to a
+window of ``window`` samples around each point, using the actual sample
+times: Savitzky–Golay filtering without the equal-spacing assumption. The
+estimate at each point is a linear combination of the samples, so the 1-σ of
+independent per-sample errors propagates exactly: σ² = Σ cᵢ² σᵢ².
+
+Two refinements make it fit for mechanisms that start and stop:
+
+- *Non-oscillatory windows* (``adaptive=True``): where the centred window's
+  fit residual is too large for the noise (it straddles a kink, such as the
+  instant a drive starts), the point uses whichever shifted window containing
+  it fits best, so a step in the derivative is not smeared across it (the
+  idea of ENO stencil selection).
+- *Automatic window length* (:func:`choose_window`): the length that
+  minimises the leave-one-out prediction error of the samples.
 
 Segments are runs of finite samples; no window crosses a gap.
 """
@@ -16,11 +25,16 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.stats import chi2
 
 
 @dataclass(frozen=True)
 class Derivatives:
-    """Smoothed value and first two derivatives with their 1-σ (NaN in gaps)."""
+    """Smoothed value and first two derivatives with their 1-σ (NaN in gaps).
+
+    ``loo`` is each sample's leave-one-out residual (for choosing the window)
+    and ``shifted`` marks points that used an off-centre window.
+    """
 
     value: NDArray[np.float64]
     d1: NDArray[np.float64]
@@ -28,6 +42,9 @@ class Derivatives:
     value_sigma: NDArray[np.float64]
     d1_sigma: NDArray[np.float64]
     d2_sigma: NDArray[np.float64]
+    loo: NDArray[np.float64]
+    shifted: NDArray[np.bool_]
+    window: int
 
 
 def segments(valid: NDArray[np.bool_]) -> list[tuple[int, int]]:
@@ -37,12 +54,28 @@ def segments(valid: NDArray[np.bool_]) -> list[tuple[int, int]]:
     return list(zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True))
 
 
+def _fits(t: NDArray, y: NDArray, a: int, n: int, start: NDArray, window: int, order: int,
+          scale: float) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """Coefficient maps, residual sums and self-weights for windows at ``start``."""
+    idx = np.arange(n)
+    rows = start[:, None] + np.arange(window)[None, :] + a  # (n, window)
+    dt = (t[rows] - t[a + idx][:, None]) / scale
+    V = dt[..., None] ** np.arange(order + 1)  # (n, window, order+1)
+    C = np.linalg.pinv(V)  # (n, order+1, window)
+    coef = np.einsum("nkw,nw->nk", C, y[rows])
+    fitted = np.einsum("nwk,nk->nw", V, coef)
+    rss = ((y[rows] - fitted) ** 2).sum(axis=1)
+    self_w = C[np.arange(n), 0, idx - start]  # weight of sample i on its own value
+    return C, rss, self_w, rows
+
+
 def local_polynomial(
     t_s: ArrayLike,
     y: ArrayLike,
     sigma: ArrayLike | float = 0.0,
     window: int = 7,
     order: int = 2,
+    adaptive: bool = False,
 ) -> Derivatives:
     """Value, first and second derivative of ``y(t)`` by local polynomial fits.
 
@@ -55,9 +88,11 @@ def local_polynomial(
     sigma : array_like or float
         1-σ of each sample (same unit as ``y``).
     window : int
-        Samples per fit (odd, > ``order``).
+        Samples per fit (odd, > ``order`` + 1).
     order : int
         Polynomial degree (≥ 2 for a second derivative).
+    adaptive : bool
+        Use non-oscillatory window selection near kinks (see module doc).
 
     Returns
     -------
@@ -72,26 +107,43 @@ def local_polynomial(
     >>> float(np.round(d.d1[5], 9)), float(np.round(d.d2[5], 9))
     (3.0, 6.0)
     """
-    if window % 2 == 0 or window <= order:
-        raise ValueError(f"window must be odd and larger than order, got {window}, {order}")
+    if window % 2 == 0 or window <= order + 1:
+        raise ValueError(f"window must be odd and larger than order + 1, got {window}, {order}")
     t = np.asarray(t_s, dtype=float)
     yv = np.asarray(y, dtype=float)
     sig = np.broadcast_to(np.asarray(sigma, dtype=float), yv.shape)
-    out = {k: np.full(yv.shape, np.nan) for k in ("v", "d1", "d2", "sv", "s1", "s2")}
+    keys = ("v", "d1", "d2", "sv", "s1", "s2", "loo")
+    out = {k: np.full(yv.shape, np.nan) for k in keys}
+    shifted = np.zeros(yv.shape, bool)
     half = window // 2
+    dof = window - order - 1
     for a, b in segments(np.isfinite(yv) & np.isfinite(t)):
         n = b - a
         if n < window:
             continue
-        idx = np.arange(n)
-        start = np.clip(idx - half, 0, n - window)  # windows shifted inward at the ends
-        rows = start[:, None] + np.arange(window)[None, :] + a  # (n, window)
-        centre = t[a:b]
-        # Times relative to each point, scaled for conditioning.
         scale = max(float(np.median(np.diff(t[a:b]))), 1e-12)
-        dt = (t[rows] - centre[:, None]) / scale
-        V = dt[..., None] ** np.arange(order + 1)  # (n, window, order+1)
-        C = np.linalg.pinv(V)  # (n, order+1, window): coefficients = C @ y
+        idx = np.arange(n)
+        centred = np.clip(idx - half, 0, n - window)
+        C, rss, self_w, rows = _fits(t, yv, a, n, centred, window, order, scale)
+        if adaptive and n > window:
+            # Noise level from the typical centred residual (robust to the few kinks).
+            noise_var = float(np.median(rss)) / dof / (chi2.ppf(0.5, dof) / dof)
+            limit = noise_var * chi2.ppf(0.999, dof)
+            best_rss, choice = rss.copy(), centred.copy()
+            bad = rss > limit
+            for shift in range(-half, half + 1):
+                if shift == 0 or not bad.any():
+                    continue
+                start = np.clip(idx - half + shift, 0, n - window)
+                start = np.clip(start, idx - window + 1, idx)  # the window must contain i
+                _, r2, _, _ = _fits(t, yv, a, n, start, window, order, scale)
+                better = bad & (r2 < best_rss)
+                best_rss[better], choice[better] = r2[better], start[better]
+            moved = choice != centred
+            if moved.any():
+                C2, _, sw2, rows2 = _fits(t, yv, a, n, choice, window, order, scale)
+                C[moved], self_w[moved], rows[moved] = C2[moved], sw2[moved], rows2[moved]
+                shifted[a:b] = moved
         ys, ss = yv[rows], sig[rows]
         for k, key, skey, f in ((0, "v", "sv", 1.0), (1, "d1", "s1", 1.0 / scale),
                                 (2, "d2", "s2", 2.0 / scale**2)):
@@ -100,4 +152,34 @@ def local_polynomial(
             c = C[:, k, :] * f
             out[key][a:b] = np.sum(c * ys, axis=1)
             out[skey][a:b] = np.sqrt(np.sum((c * ss) ** 2, axis=1))
-    return Derivatives(out["v"], out["d1"], out["d2"], out["sv"], out["s1"], out["s2"])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out["loo"][a:b] = (yv[a:b] - out["v"][a:b]) / (1.0 - self_w)
+    return Derivatives(out["v"], out["d1"], out["d2"], out["sv"], out["s1"], out["s2"],
+                       out["loo"], shifted, window)
+
+
+def choose_window(
+    t_s: ArrayLike,
+    y: ArrayLike,
+    sigma: ArrayLike | float = 0.0,
+    order: int = 2,
+    candidates: tuple[int, ...] = (5, 7, 9, 11, 15, 21, 31),
+    adaptive: bool = True,
+) -> tuple[int, dict[int, float]]:
+    """The window length (samples) with the smallest leave-one-out error.
+
+    Returns the chosen length and every candidate's mean squared
+    leave-one-out residual (same unit as ``y``, squared). Candidates longer
+    than the longest segment are skipped.
+    """
+    scores: dict[int, float] = {}
+    for w in candidates:
+        if w <= order + 1:
+            continue
+        d = local_polynomial(t_s, y, sigma, w, order, adaptive)
+        loo = d.loo[np.isfinite(d.loo)]
+        if loo.size >= max(10, w):
+            scores[w] = float(np.mean(loo**2))
+    if not scores:
+        return min(c for c in candidates if c > order + 1), scores
+    return min(scores, key=scores.get), scores

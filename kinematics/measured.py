@@ -3,21 +3,35 @@
 θ is the internal angle at A between A→C and A→B, computed per frame from
 the three tracked points (so a pivot that moves does not bias it) and
 unwrapped; ω, α, v_B and L3' come from :mod:`.differentiate` on the real
-frame times. Every column carries a 1-σ propagated from the per-point
-``_sigma_mm``, to first order and assuming independent frames.
+frame times, with non-oscillatory windows (no smearing across the instants
+a drive starts or stops) whose length is chosen from the data by
+leave-one-out cross-validation on θ.
+
+Every column carries a 1-σ propagated from the per-point ``_sigma_mm``, to
+first order. Positions (θ, L3) keep that σ: much of a tracker's error on
+compressed video is the same in every frame (a bias) and belongs there.
+Rates (ω, α, v_B, L3') see only the part that changes from frame to frame,
+so their propagated σ is *calibrated*: the leave-one-out residuals of θ show
+how large that part really is, and the rate σ are scaled by the ratio
+(reported as ``sigma_scale``). The differentiator's own bias — a polynomial
+fitted to a curve — is estimated as the difference from the next longer
+window and added in quadrature.
+
+Rigid links: |AB| (``L2_mm``) and |AC| (``L1_mm``) are reported per frame;
+``rigid_ok`` is false where either leaves its median by more than 5σ (a
+tracking glitch, or a camera that is not square to the plane).
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
 from cranktrack.errors import CranktrackError
-from cranktrack.kinematics.differentiate import local_polynomial
+from cranktrack.kinematics.differentiate import Derivatives, choose_window, local_polynomial
 from cranktrack.kinematics.table import kinematics_table
-
-#: Default length of the differentiator's window, s.
-DEFAULT_WINDOW_S = 0.2
 
 
 def _xy(tracks: pd.DataFrame, m: str) -> np.ndarray:
@@ -62,40 +76,93 @@ def crank_angle(tracks: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     return theta, np.sqrt(var)
 
 
+def _noise_scale(loo: np.ndarray, sigma: np.ndarray, fit_sigma: np.ndarray) -> float:
+    """Ratio of the real noise to the propagated σ, from leave-one-out residuals.
+
+    A sample's leave-one-out residual has variance σᵢ² + (σ of the fit
+    without it)²; the robust ratio uses the median of the squared
+    normalised residuals over that of a χ²₁ variable (0.455).
+    """
+    var = sigma**2 + fit_sigma**2
+    ok = np.isfinite(loo) & (var > 0)
+    if ok.sum() < 10:
+        return 1.0
+    return float(np.sqrt(np.median(loo[ok] ** 2 / var[ok]) / 0.4549364))
+
+
+@dataclass(frozen=True)
+class MeasureInfo:
+    """How the kinematics were measured: the window (samples and s), the
+    σ scale applied, the leave-one-out score of each candidate window and
+    the rigid-link figures (mm)."""
+
+    window: int
+    window_s: float
+    sigma_scale: float
+    window_scores: dict[int, float]
+    links: dict[str, dict[str, float]]
+
+    def to_dict(self) -> dict:
+        return {"window_samples": self.window, "window_s": self.window_s,
+                "sigma_scale": self.sigma_scale,
+                "window_scores": {str(k): v for k, v in self.window_scores.items()},
+                "links": self.links}
+
+
 def measure_kinematics(
-    tracks: pd.DataFrame, window_s: float = DEFAULT_WINDOW_S, order: int = 2
-) -> pd.DataFrame:
+    tracks: pd.DataFrame, window_s: float | None = None, order: int = 2
+) -> tuple[pd.DataFrame, MeasureInfo]:
     """The kinematics table from a tracks table with plane coordinates.
 
     Parameters
     ----------
     tracks : DataFrame
         Tracks with ``t_s`` and ``A|B|C`` ``_x_mm``, ``_y_mm``, ``_sigma_mm``.
-    window_s : float
-        Length of the differentiator's window, s.
+    window_s : float, optional
+        Length of the differentiator's window, s; ``None`` chooses it from
+        the data (leave-one-out cross-validation on θ).
     order : int
         Degree of the local polynomials.
 
     Returns
     -------
-    DataFrame
-        The kinematics table of DESIGN.md, one row per frame.
+    (DataFrame, MeasureInfo)
+        The kinematics table of DESIGN.md (plus ``L1_mm``, ``L2_mm``,
+        ``rigid_ok``), one row per frame, and how it was made.
     """
     for m in "ABC":
         if f"{m}_x_mm" not in tracks:
             raise CranktrackError(f"the tracks have no plane coordinates for marker {m}; "
                                   "calibrate first")
     t = tracks["t_s"].to_numpy(float)
-    w = window_samples(t, window_s, order)
     theta, theta_sigma = crank_angle(tracks)
-    d_theta = local_polynomial(t, theta, theta_sigma, w, order)
-    B, C = _xy(tracks, "B"), _xy(tracks, "C")
-    sB, sC = tracks["B_sigma_mm"].to_numpy(float), tracks["C_sigma_mm"].to_numpy(float)
-    dBx = local_polynomial(t, B[:, 0], sB, w, order)
-    dBy = local_polynomial(t, B[:, 1], sB, w, order)
+    if window_s is None:
+        w, scores = choose_window(t, theta, theta_sigma, order)
+    else:
+        w, scores = window_samples(t, window_s, order), {}
+
+    d_theta = local_polynomial(t, theta, theta_sigma, w, order, adaptive=True)
+    scale = _noise_scale(d_theta.loo, theta_sigma, d_theta.value_sigma)
+
+    def diff(y: np.ndarray, s: np.ndarray) -> Derivatives:
+        """Rates with σ = calibrated noise ⊕ window bias (|this − next longer window|)."""
+        d = local_polynomial(t, y, s, w, order, adaptive=True)
+        wider = local_polynomial(t, y, s, w + 2, order, adaptive=True)
+        bias1 = np.abs(d.d1 - wider.d1)
+        bias2 = np.abs(d.d2 - wider.d2)
+        bias1 = np.where(np.isfinite(bias1), bias1, 0.0)
+        bias2 = np.where(np.isfinite(bias2), bias2, 0.0)
+        return Derivatives(d.value, d.d1, d.d2, d.value_sigma,
+                           np.hypot(scale * d.d1_sigma, bias1),
+                           np.hypot(scale * d.d2_sigma, bias2), d.loo, d.shifted, w)
+
+    d_theta = diff(theta, theta_sigma)
+    A, B, C = _xy(tracks, "A"), _xy(tracks, "B"), _xy(tracks, "C")
+    sA, sB, sC = (tracks[f"{m}_sigma_mm"].to_numpy(float) for m in "ABC")
+    dBx, dBy = diff(B[:, 0], sB), diff(B[:, 1], sB)
     L3 = np.hypot(*(B - C).T)
     L3_sigma = np.hypot(sB, sC)
-    dL3 = local_polynomial(t, L3, L3_sigma, w, order)
+    dL3 = diff(L3, L3_sigma)
     vx, vy = dBx.d1, dBy.d1
     speed = np.hypot(vx, vy)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -115,5 +182,20 @@ def measure_kinematics(
         "L3_mm": L3_sigma,
         "L3_rate_mm_s": dL3.d1_sigma,
     }
-    return kinematics_table(t, theta, d_theta.d1, d_theta.d2, np.stack([vx, vy], axis=1), L3,
-                            dL3.d1, sigma=sigma, frame=tracks["frame"].to_numpy())
+    table = kinematics_table(t, theta, d_theta.d1, d_theta.d2, np.stack([vx, vy], axis=1), L3,
+                             dL3.d1, sigma=sigma, frame=tracks["frame"].to_numpy())
+    links = {}
+    rigid_ok = np.isfinite(theta)
+    for name, p, q, sp, sq in (("L1_mm", A, C, sA, sC), ("L2_mm", A, B, sA, sB)):
+        length = np.hypot(*(q - p).T)
+        table[name] = length
+        ls = np.hypot(sp, sq)
+        med = float(np.nanmedian(length))
+        jump = np.abs(length - med) > 5.0 * np.maximum(ls, 1e-9)
+        rigid_ok &= ~jump
+        links[name] = {"median": med, "std": float(np.nanstd(length)),
+                       "range": float(np.nanmax(length) - np.nanmin(length)),
+                       "frames_flagged": int(np.sum(jump & np.isfinite(length)))}
+    table["rigid_ok"] = rigid_ok
+    step = float(np.median(np.diff(t))) if t.size > 1 else float("nan")
+    return table, MeasureInfo(w, w * step, scale, scores, links)

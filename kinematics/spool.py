@@ -68,12 +68,15 @@ class SpoolDrive:
     def slider(self, t_s: ArrayLike) -> SliderState:
         """L3, L3' and L3'' at times ``t_s`` (s).
 
-        At the start and stop instants the rate is discontinuous; there the
-        rate is that of the phase being entered and L3'' is 0.
+        The rate steps at the start and stop instants, where it has no value:
+        exactly there L3' and L3'' are NaN (and so are ω, α and v_B derived
+        from them), rather than one side's value by convention.
         """
         t = np.asarray(t_s, dtype=float)
-        moving = (t >= self.start_s) & (t < self.stop_s)
+        moving = (t > self.start_s) & (t < self.stop_s)
         wound = np.clip(t - self.start_s, 0.0, self.stroke_mm / self.speed_mm_s)
         L3 = self.L3_0 - self.speed_mm_s * wound
-        rate = np.where(moving, -self.speed_mm_s, 0.0)
-        return SliderState(L3=L3, L3_rate=rate, L3_accel=np.zeros_like(t))
+        kink = (t == self.start_s) | (t == self.stop_s)
+        rate = np.where(kink, np.nan, np.where(moving, -self.speed_mm_s, 0.0))
+        accel = np.where(kink, np.nan, 0.0)
+        return SliderState(L3=L3, L3_rate=rate, L3_accel=accel)
