@@ -198,10 +198,42 @@ def cmd_demo(args: argparse.Namespace) -> int:
     print(f"rocking angle: measured {rocking_meas:.3f} deg, model {rocking_model:.3f} deg")
     print("('away from start/stop' leaves out the two frames either side of the drive's "
           "start and stop, where ω steps)")
+    from cranktrack.pipeline import compare_run
+
+    fitted, plots = compare_run(run.folder, {"L1": d.L1, "L2": d.L2, "speed_mm_s": d.speed_mm_s})
+    print()
+    print("Spool model fitted to the measured θ(t) (start time, stroke and L3_0 free): "
+          + ", ".join(f"{k} = {v:.5g} ± {sd:.2g}" for k, (v, sd) in fitted.fit.fitted.items()))
+    _print_comparison(fitted)
     print()
     print(f"outputs: {out}")
     print(f"  scene: {files.video.name}, {files.truth.name}, {files.scene.name} in {files.folder}")
-    print(f"  run:   {', '.join(p.name for p in run.files.values())} in {run.folder}")
+    print(f"  run:   {', '.join(p.name for p in [*run.files.values(), *plots])} in {run.folder}")
+    return 0
+
+
+def _print_comparison(result) -> None:
+    rows = [["quantity", "RMS error", "max error", "RMS % of peak", "fit %"]]
+    for r in result.summary.itertuples():
+        rows.append([r.quantity, f"{r.rms:.4g} {r.unit}", f"{r.max_abs:.4g} {r.unit}",
+                     f"{r.rms_pct_of_peak:.2f}", f"{r.fit_pct:.2f}"])
+    print(_format_table(rows))
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from cranktrack.pipeline import compare_run
+
+    fixed = {k: v for k, v in (("L1", args.L1), ("L2", args.L2), ("L3_0", args.L3_0),
+                               ("stroke_mm", args.stroke_mm)) if v is not None}
+    if not args.fit_speed:
+        fixed["speed_mm_s"] = args.speed_mm_s
+    result, files = compare_run(Path(args.run), fixed)
+    for m in result.fit.messages:
+        print(f"note: {m}")
+    print("fitted: " + ", ".join(f"{k} = {v:.5g} ± {sd:.2g}"
+                                 for k, (v, sd) in result.fit.fitted.items()))
+    _print_comparison(result)
+    print(f"wrote {', '.join(f.name for f in files)} in {args.run}")
     return 0
 
 
@@ -246,6 +278,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fps", dest="fps_images", type=_positive,
                    help="frame rate of an image folder (videos use their own timestamps)")
     p.set_defaults(func=cmd_track)
+
+    p = sub.add_parser("compare", help="fit the spool model to a run and compare")
+    p.add_argument("run", help="run folder written by `cranktrack track`")
+    p.add_argument("--model", choices=["spool"], default="spool",
+                   help="the model to fit (spool: thesis §2.5.2)")
+    p.add_argument("--L1", type=_positive, help="frame length A–C, mm (fitted if omitted)")
+    p.add_argument("--L2", type=_positive, help="crank length A–B, mm (fitted if omitted)")
+    p.add_argument("--L3-0", dest="L3_0", type=_positive,
+                   help="initial wire length B–C, mm (fitted if omitted)")
+    p.add_argument("--stroke-mm", type=_positive, help="wire wound in, mm (fitted if omitted)")
+    p.add_argument("--speed-mm-s", type=_positive, default=14.0,
+                   help="spool speed, mm/s, held fixed (14.0, Table 2.2)")
+    p.add_argument("--fit-speed", action="store_true",
+                   help="fit the speed too (then L1 is held at its measured value)")
+    p.set_defaults(func=cmd_compare)
 
     p = sub.add_parser("demo", help="render the default spool scene, track it, compare with "
                                     "the model")

@@ -22,8 +22,10 @@ from cranktrack.calibration.known_length import (
     calibrate_known_length,
 )
 from cranktrack.errors import CranktrackError
-from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic
+from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic, write_text_atomic
+from cranktrack.kinematics.compare import Comparison, compare_spool
 from cranktrack.kinematics.measured import measure_kinematics
+from cranktrack.kinematics.plots import plot_comparison
 from cranktrack.tracker.gaps import fill_gaps
 from cranktrack.tracker.markers import DEFAULT_MARKERS, MarkerSpec
 from cranktrack.tracker.track import track
@@ -136,3 +138,43 @@ def track_run(
         run_info["warnings"] = warnings
         files["run"] = write_json_atomic(folder / "run.json", run_info)
     return RunResult(folder, tracks, kinematics, cal, files, warnings)
+
+
+def compare_run(run: Path, fixed: dict[str, float]) -> tuple[Comparison, list[Path]]:
+    """Fit the spool model to ``run/kinematics.csv`` and write the comparison.
+
+    Writes ``compare.csv`` (measured, σ, model and error side by side),
+    ``compare.json`` (fitted parameters ± 1σ, fixed ones, error figures),
+    ``compare.md`` and the figures; returns the comparison and the paths.
+    """
+    path = Path(run) / "kinematics.csv"
+    if not path.is_file():
+        raise CranktrackError(f"{path} does not exist; run `cranktrack track VIDEO --out {run} "
+                              "--known-length A-C=MM` first")
+    try:
+        measured = pd.read_csv(path)
+    except (pd.errors.ParserError, UnicodeDecodeError, pd.errors.EmptyDataError) as e:
+        raise CranktrackError(f"{path} is not a readable CSV table ({e})") from None
+    missing = {"frame", "t_s", "theta_deg", "theta_deg_sigma", "L3_mm"} - set(measured.columns)
+    if missing:
+        raise CranktrackError(f"{path} lacks the column(s) {sorted(missing)}; is it a "
+                              "cranktrack kinematics table?")
+    result = compare_spool(measured, fixed)
+    report = {**result.fit.to_dict(), "errors": result.summary.to_dict(orient="records")}
+    files = [write_csv_atomic(run / "compare.csv", result.table),
+             write_json_atomic(run / "compare.json", report)]
+    figures = plot_comparison(result.table, run)
+    lines = ["# Measured vs spool model", "", "| parameter | value | 1σ | unit |",
+             "|---|---|---|---|"]
+    for k, v in report["fitted"].items():
+        lines.append(f"| {k} (fitted) | {v['value']:.5g} | {v['sigma']:.2g} | {v['unit']} |")
+    for k, v in report["fixed"].items():
+        lines.append(f"| {k} (fixed) | {v['value']:.5g} | | {v['unit']} |")
+    lines += ["", "| quantity | RMS error | max error | RMS % of peak | fit % | frames |",
+              "|---|---|---|---|---|---|"]
+    for r in result.summary.itertuples():
+        lines.append(f"| {r.quantity} | {r.rms:.4g} {r.unit} | {r.max_abs:.4g} {r.unit} | "
+                     f"{r.rms_pct_of_peak:.2f} | {r.fit_pct:.2f} | {r.frames} |")
+    lines += [""] + [f"![{f.stem}]({f.name})" for f in figures] + [""]
+    files.append(write_text_atomic(run / "compare.md", "\n".join(lines)))
+    return result, files + figures

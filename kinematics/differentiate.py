@@ -12,7 +12,8 @@ Two refinements make it fit for mechanisms that start and stop:
   fit residual is too large for the noise (it straddles a kink, such as the
   instant a drive starts), the point uses whichever shifted window containing
   it fits best, so a step in the derivative is not smeared across it (the
-  idea of ENO stencil selection).
+  idea of ENO stencil selection). When several windows fit acceptably but
+  give different rates, half their spread is added to the rate's σ.
 - *Automatic window length* (:func:`choose_window`): the length that
   minimises the leave-one-out prediction error of the samples.
 
@@ -21,6 +22,7 @@ Segments are runs of finite samples; no window crosses a gap.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,8 +34,12 @@ from scipy.stats import chi2
 class Derivatives:
     """Smoothed value and first two derivatives with their 1-σ (NaN in gaps).
 
-    ``loo`` is each sample's leave-one-out residual (for choosing the window)
-    and ``shifted`` marks points that used an off-centre window.
+    The σ are the propagated measurement noise only. ``d1_select`` and
+    ``d2_select`` are the extra uncertainty from window selection near kinks
+    (half the spread of acceptable windows' rates; 0 elsewhere), to be added
+    in quadrature. ``loo`` is each sample's leave-one-out residual (for
+    choosing the window) and ``shifted`` marks points that used an
+    off-centre window.
     """
 
     value: NDArray[np.float64]
@@ -45,6 +51,8 @@ class Derivatives:
     loo: NDArray[np.float64]
     shifted: NDArray[np.bool_]
     window: int
+    d1_select: NDArray[np.float64]
+    d2_select: NDArray[np.float64]
 
 
 def segments(valid: NDArray[np.bool_]) -> list[tuple[int, int]]:
@@ -112,7 +120,7 @@ def local_polynomial(
     t = np.asarray(t_s, dtype=float)
     yv = np.asarray(y, dtype=float)
     sig = np.broadcast_to(np.asarray(sigma, dtype=float), yv.shape)
-    keys = ("v", "d1", "d2", "sv", "s1", "s2", "loo")
+    keys = ("v", "d1", "d2", "sv", "s1", "s2", "loo", "x1", "x2")
     out = {k: np.full(yv.shape, np.nan) for k in keys}
     shifted = np.zeros(yv.shape, bool)
     half = window // 2
@@ -121,6 +129,7 @@ def local_polynomial(
         n = b - a
         if n < window:
             continue
+        spread = np.zeros((2, n))
         scale = max(float(np.median(np.diff(t[a:b]))), 1e-12)
         idx = np.arange(n)
         centred = np.clip(idx - half, 0, n - window)
@@ -131,14 +140,32 @@ def local_polynomial(
             limit = noise_var * chi2.ppf(0.999, dof)
             best_rss, choice = rss.copy(), centred.copy()
             bad = rss > limit
+            # Rates of every window containing the point: where more than one
+            # fits about as well as the best (Δχ² ≤ 9) and they disagree (a kink
+            # a fraction of a frame away), which is right is not knowable, and
+            # their spread belongs in σ.
+            all_rss, all_rates = [], []
             for shift in range(-half, half + 1):
-                if shift == 0 or not bad.any():
-                    continue
+                if not bad.any():
+                    break
                 start = np.clip(idx - half + shift, 0, n - window)
                 start = np.clip(start, idx - window + 1, idx)  # the window must contain i
-                _, r2, _, _ = _fits(t, yv, a, n, start, window, order, scale)
+                C2, r2, _, rows2 = _fits(t, yv, a, n, start, window, order, scale)
                 better = bad & (r2 < best_rss)
                 best_rss[better], choice[better] = r2[better], start[better]
+                all_rss.append(r2)
+                all_rates.append([np.einsum("nw,nw->n", C2[:, k, :], yv[rows2])
+                                  for k in range(1, order + 1)])
+            if all_rss:
+                R = np.array(all_rss)  # (shifts, n)
+                rates = np.array(all_rates)  # (shifts, order, n)
+                fine = bad & ((R <= limit) | (R - best_rss <= 9.0 * noise_var))
+                for k in range(min(order, 2)):
+                    vals = np.where(fine, rates[:, k, :], np.nan)
+                    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+                        warnings.simplefilter("ignore", RuntimeWarning)
+                        width = np.nanmax(vals, axis=0) - np.nanmin(vals, axis=0)
+                    spread[k] = np.where(np.isfinite(width), 0.5 * width, 0.0)
             moved = choice != centred
             if moved.any():
                 C2, _, sw2, rows2 = _fits(t, yv, a, n, choice, window, order, scale)
@@ -152,10 +179,12 @@ def local_polynomial(
             c = C[:, k, :] * f
             out[key][a:b] = np.sum(c * ys, axis=1)
             out[skey][a:b] = np.sqrt(np.sum((c * ss) ** 2, axis=1))
+            if k >= 1:
+                out[f"x{k}"][a:b] = spread[k - 1] * f
         with np.errstate(divide="ignore", invalid="ignore"):
             out["loo"][a:b] = (yv[a:b] - out["v"][a:b]) / (1.0 - self_w)
     return Derivatives(out["v"], out["d1"], out["d2"], out["sv"], out["s1"], out["s2"],
-                       out["loo"], shifted, window)
+                       out["loo"], shifted, window, out["x1"], out["x2"])
 
 
 def choose_window(

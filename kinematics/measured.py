@@ -24,7 +24,7 @@ tracking glitch, or a camera that is not square to the plane).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -145,16 +145,15 @@ def measure_kinematics(
     scale = _noise_scale(d_theta.loo, theta_sigma, d_theta.value_sigma)
 
     def diff(y: np.ndarray, s: np.ndarray) -> Derivatives:
-        """Rates with σ = calibrated noise ⊕ window bias (|this − next longer window|)."""
+        """Rates with σ = calibrated noise ⊕ window bias (|this − next longer window|)
+        ⊕ window-selection spread near kinks."""
         d = local_polynomial(t, y, s, w, order, adaptive=True)
         wider = local_polynomial(t, y, s, w + 2, order, adaptive=True)
-        bias1 = np.abs(d.d1 - wider.d1)
-        bias2 = np.abs(d.d2 - wider.d2)
-        bias1 = np.where(np.isfinite(bias1), bias1, 0.0)
-        bias2 = np.where(np.isfinite(bias2), bias2, 0.0)
-        return Derivatives(d.value, d.d1, d.d2, d.value_sigma,
-                           np.hypot(scale * d.d1_sigma, bias1),
-                           np.hypot(scale * d.d2_sigma, bias2), d.loo, d.shifted, w)
+        bias1 = np.nan_to_num(np.abs(d.d1 - wider.d1))
+        bias2 = np.nan_to_num(np.abs(d.d2 - wider.d2))
+        s1 = np.sqrt((scale * d.d1_sigma) ** 2 + bias1**2 + np.nan_to_num(d.d1_select) ** 2)
+        s2 = np.sqrt((scale * d.d2_sigma) ** 2 + bias2**2 + np.nan_to_num(d.d2_select) ** 2)
+        return replace(d, d1_sigma=s1, d2_sigma=s2)
 
     d_theta = diff(theta, theta_sigma)
     A, B, C = _xy(tracks, "A"), _xy(tracks, "B"), _xy(tracks, "C")
@@ -184,6 +183,9 @@ def measure_kinematics(
     }
     table = kinematics_table(t, theta, d_theta.d1, d_theta.d2, np.stack([vx, vy], axis=1), L3,
                              dL3.d1, sigma=sigma, frame=tracks["frame"].to_numpy())
+    # A direction of travel is only measured while B measurably moves.
+    still_B = ~(speed > 2.0 * sigma["vB_mm_s"])
+    table.loc[still_B, ["vB_dir_deg", "vB_dir_deg_sigma"]] = np.nan
     links = {}
     rigid_ok = np.isfinite(theta)
     for name, p, q, sp, sq in (("L1_mm", A, C, sA, sC), ("L2_mm", A, B, sA, sB)):
