@@ -16,11 +16,8 @@ from pathlib import Path
 import pandas as pd
 
 from cranktrack.calibration.file import save_calibration
-from cranktrack.calibration.known_length import (
-    PlaneCalibration,
-    add_plane_coordinates,
-    calibrate_known_length,
-)
+from cranktrack.calibration.known_length import calibrate_known_length
+from cranktrack.calibration.plane import PlaneCalibration, add_plane_coordinates
 from cranktrack.errors import CranktrackError
 from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic, write_text_atomic
 from cranktrack.kinematics.compare import Comparison, compare_spool
@@ -132,8 +129,7 @@ def track_run(
         else:
             raise CranktrackError("kinematics need markers A, B and C; the run tracked only "
                                   + ", ".join(names))
-        run_info["calibration"] = {"method": cal.method, "mm_per_px": cal.mm_per_px,
-                                   **cal.quality}
+        run_info["calibration"] = {"method": cal.method, **cal.quality}
         run_info["kinematics"] = info.to_dict()
         run_info["warnings"] = warnings
         files["run"] = write_json_atomic(folder / "run.json", run_info)

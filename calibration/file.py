@@ -1,4 +1,10 @@
-"""The calibration file: JSON with a schema version."""
+"""Calibration files: JSON with a schema version.
+
+Two kinds share the format: a *plane* calibration (pixels → mm, what
+``track --calibration`` needs; it may embed camera intrinsics) and a
+*camera* calibration (intrinsics only, from ``calibrate camera``).
+Schema 1 files (known-length only) are still read.
+"""
 
 from __future__ import annotations
 
@@ -6,62 +12,94 @@ import json
 import os
 from pathlib import Path
 
-from cranktrack.calibration.known_length import PlaneCalibration
+import numpy as np
+
+from cranktrack.calibration.camera import CameraCalibration
+from cranktrack.calibration.plane import PlaneCalibration, similarity
 from cranktrack.errors import CranktrackError
 from cranktrack.files import write_json_atomic
 
-SCHEMA = 1
+SCHEMA = 2
 
 
 def save_calibration(path: str | os.PathLike, cal: PlaneCalibration) -> Path:
-    """Write ``cal`` as a schema-versioned JSON file."""
-    return write_json_atomic(path, {
-        "schema": SCHEMA,
-        "method": cal.method,
-        "image_size": list(cal.image_size),
-        "mm_per_px": cal.mm_per_px,
-        "origin_px": list(cal.origin_px),
-        "x_axis_deg": cal.x_axis_deg,
-        "quality": cal.quality,
-        "warnings": list(cal.warnings),
-    })
+    """Write a plane calibration."""
+    return write_json_atomic(path, {"schema": SCHEMA, "kind": "plane", **cal.to_dict()})
 
 
-def load_calibration(path: str | os.PathLike,
-                     image_size: tuple[int, int] | None = None) -> PlaneCalibration:
-    """Read a calibration file, refusing one made for another image size.
+def save_camera(path: str | os.PathLike, camera: CameraCalibration) -> Path:
+    """Write a camera (intrinsics) calibration."""
+    return write_json_atomic(path, {"schema": SCHEMA, "kind": "camera", "method": "camera",
+                                    **camera.to_dict()})
 
-    Raises
-    ------
-    CranktrackError
-        Missing or unreadable file, unknown schema, missing fields, or an
-        image size that differs from ``image_size``.
-    """
+
+def _read(path: str | os.PathLike) -> tuple[Path, dict]:
     p = Path(path)
     try:
         data = json.loads(p.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise CranktrackError(f"calibration file {p} does not exist") from None
+    except IsADirectoryError:
+        raise CranktrackError(f"{p} is a folder, not a calibration file") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
         raise CranktrackError(f"calibration file {p} is not valid JSON ({e})") from None
-    if not isinstance(data, dict) or data.get("schema") != SCHEMA:
-        found = data.get("schema") if isinstance(data, dict) else None
+    schema = data.get("schema") if isinstance(data, dict) else None
+    if schema not in (1, SCHEMA):
         raise CranktrackError(
-            f"calibration file {p} has schema {found!r}; this cranktrack reads schema {SCHEMA}")
+            f"calibration file {p} has schema {schema!r}; this cranktrack reads schemas 1 and "
+            f"{SCHEMA}")
+    return p, data
+
+
+def _check_size(p: Path, made: tuple[int, int], image_size: tuple[int, int] | None) -> None:
+    if image_size is not None and tuple(image_size) != tuple(made):
+        raise CranktrackError(
+            f"calibration file {p} was made for {made[0]}x{made[1]} images, "
+            f"but the video is {image_size[0]}x{image_size[1]}; calibrate for this camera setting")
+
+
+def load_camera(path: str | os.PathLike) -> CameraCalibration:
+    """Read camera intrinsics (from a camera file, or embedded in a plane file)."""
+    p, data = _read(path)
     try:
-        cal = PlaneCalibration(
-            method=str(data["method"]),
-            mm_per_px=float(data["mm_per_px"]),
-            origin_px=(float(data["origin_px"][0]), float(data["origin_px"][1])),
-            x_axis_deg=float(data["x_axis_deg"]),
-            image_size=(int(data["image_size"][0]), int(data["image_size"][1])),
-            quality=dict(data.get("quality", {})),
-            warnings=tuple(data.get("warnings", ())),
-        )
+        d = data if data.get("kind") == "camera" else data.get("camera")
+        if not d:
+            raise CranktrackError(f"{p} holds no camera intrinsics; make them with "
+                                  "`cranktrack calibrate camera`")
+        return CameraCalibration.from_dict(d)
     except (KeyError, IndexError, TypeError, ValueError) as e:
         raise CranktrackError(f"calibration file {p} is missing or has a bad field ({e})") from None
-    if image_size is not None and tuple(image_size) != cal.image_size:
+
+
+def load_calibration(path: str | os.PathLike,
+                     image_size: tuple[int, int] | None = None) -> PlaneCalibration:
+    """Read a plane calibration, refusing one made for another image size.
+
+    Raises
+    ------
+    CranktrackError
+        Missing or unreadable file, unknown schema, a camera-only file,
+        missing fields, or an image size that differs from ``image_size``.
+    """
+    p, data = _read(path)
+    if data.get("kind") == "camera":
         raise CranktrackError(
-            f"calibration file {p} was made for {cal.image_size[0]}x{cal.image_size[1]} images, "
-            f"but the video is {image_size[0]}x{image_size[1]}; calibrate for this camera setting")
+            f"{p} holds camera intrinsics only; map the mechanism plane with `cranktrack "
+            "calibrate plane` (a board lying in the plane, or four known points)")
+    try:
+        size = (int(data["image_size"][0]), int(data["image_size"][1]))
+        if data["schema"] == 1:  # known-length only: a similarity
+            H = similarity(float(data["mm_per_px"]),
+                           (float(data["origin_px"][0]), float(data["origin_px"][1])),
+                           float(data["x_axis_deg"]))
+            camera = None
+        else:
+            H = np.asarray(data["homography_px_to_mm"], float).reshape(3, 3)
+            camera = (CameraCalibration.from_dict(data["camera"]) if data.get("camera")
+                      else None)
+        cal = PlaneCalibration(str(data["method"]), H, size, camera,
+                               dict(data.get("quality", {})), tuple(data.get("warnings", ())))
+    except (KeyError, IndexError, TypeError, ValueError) as e:
+        raise CranktrackError(f"calibration file {p} is missing or has a bad field ({e})") from None
+    _check_size(p, size, image_size)
     return cal

@@ -7,7 +7,9 @@ A at the origin and C on +x (median positions over the run), with y 90°
 counter-clockwise in the plane, which for a camera looking down is *up* in
 the image.
 
-This is only right for a camera square to the plane with a lens that does
+The result is a :class:`~cranktrack.calibration.plane.PlaneCalibration`
+whose homography is that similarity. This is only right for a camera square
+to the plane with a lens that does
 not bend lines; the spread of the known length over the run is reported as
 the quality figure, because tilt and distortion show up as a length that
 changes with position.
@@ -15,42 +17,14 @@ changes with position.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 import pandas as pd
 
+from cranktrack.calibration.plane import PlaneCalibration, similarity
 from cranktrack.errors import CranktrackError
 
 #: Relative spread (std / median) of the known length above which we warn.
 SPREAD_WARNING = 0.01
-
-
-@dataclass(frozen=True)
-class PlaneCalibration:
-    """Pixels → mechanism-plane millimetres by a similarity transform.
-
-    ``mm_per_px`` is the scale, ``origin_px`` the image point of the plane
-    origin, ``x_axis_deg`` the image direction of the plane's +x axis
-    (degrees, counter-clockwise with image y pointing up), ``image_size``
-    (width, height) px the images it is valid for, ``quality`` a dict of
-    figures and ``warnings`` sentences for the user.
-    """
-
-    method: str
-    mm_per_px: float
-    origin_px: tuple[float, float]
-    x_axis_deg: float
-    image_size: tuple[int, int]
-    quality: dict = field(default_factory=dict)
-    warnings: tuple[str, ...] = ()
-
-    def to_plane(self, x_px: np.ndarray, y_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Image points (px) to plane points (mm)."""
-        dx = (np.asarray(x_px, float) - self.origin_px[0]) * self.mm_per_px
-        dy_up = -(np.asarray(y_px, float) - self.origin_px[1]) * self.mm_per_px
-        a = np.radians(self.x_axis_deg)
-        return dx * np.cos(a) + dy_up * np.sin(a), -dx * np.sin(a) + dy_up * np.cos(a)
 
 
 def parse_known_length(text: str) -> tuple[str, str, float]:
@@ -112,7 +86,13 @@ def calibrate_known_length(
     mm_per_px = length_mm / med
     d_mm = d_px * mm_per_px
     spread = float(np.std(d_mm))
+    o = _median_point(tracks, origin)
+    c = _median_point(tracks, axis_to)
+    axis = float(np.degrees(np.arctan2(-(c[1] - o[1]), c[0] - o[0])))
     quality = {
+        "mm_per_px": mm_per_px,
+        "origin_px": list(o),
+        "x_axis_deg": axis,
         "known_length": f"{a}-{b}",
         "known_length_mm": length_mm,
         "frames_used": int(both.sum()),
@@ -125,19 +105,5 @@ def calibrate_known_length(
         warnings.append(
             f"the {a}-{b} distance varies by {100 * spread / length_mm:.1f}% (1σ) over the run; "
             "a rigid length should not, so the camera may be tilted or the lens distorting")
-    o = _median_point(tracks, origin)
-    c = _median_point(tracks, axis_to)
-    axis = float(np.degrees(np.arctan2(-(c[1] - o[1]), c[0] - o[0])))
-    return PlaneCalibration("known-length", mm_per_px, o, axis, tuple(image_size), quality,
-                            tuple(warnings))
-
-
-def add_plane_coordinates(tracks: pd.DataFrame, cal: PlaneCalibration,
-                          markers: tuple[str, ...]) -> pd.DataFrame:
-    """A copy of ``tracks`` with ``_x_mm``, ``_y_mm`` and ``_sigma_mm`` per marker."""
-    out = tracks.copy()
-    for m in markers:
-        x, y = cal.to_plane(out[f"{m}_x_px"].to_numpy(), out[f"{m}_y_px"].to_numpy())
-        out[f"{m}_x_mm"], out[f"{m}_y_mm"] = x, y
-        out[f"{m}_sigma_mm"] = out[f"{m}_sigma_px"] * cal.mm_per_px
-    return out
+    return PlaneCalibration("known-length", similarity(mm_per_px, o, axis), tuple(image_size),
+                            None, quality, tuple(warnings))

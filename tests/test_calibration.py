@@ -7,11 +7,8 @@ import pandas as pd
 import pytest
 
 from cranktrack.calibration.file import load_calibration, save_calibration
-from cranktrack.calibration.known_length import (
-    add_plane_coordinates,
-    calibrate_known_length,
-    parse_known_length,
-)
+from cranktrack.calibration.known_length import calibrate_known_length, parse_known_length
+from cranktrack.calibration.plane import add_plane_coordinates
 from cranktrack.errors import CranktrackError
 from cranktrack.synthetic.camera import Camera
 
@@ -33,8 +30,8 @@ def test_known_length_recovers_scale_and_plane_frame_of_a_rotated_camera():
     cam = Camera(640, 480, 2.5, (200.0, 300.0), rotation_deg=17.0)
     tracks, pts = _tracks_from_camera(cam)
     cal = calibrate_known_length(tracks, "A", "C", 160.8, (640, 480))
-    assert cal.mm_per_px == pytest.approx(1 / 2.5)
-    assert cal.x_axis_deg == pytest.approx(17.0)
+    assert cal.quality["mm_per_px"] == pytest.approx(1 / 2.5)
+    assert cal.quality["x_axis_deg"] == pytest.approx(17.0)
     out = add_plane_coordinates(tracks, cal, ("A", "B", "C"))
     np.testing.assert_allclose(out[["B_x_mm", "B_y_mm"]].to_numpy(), pts["B"], atol=1e-9)
     np.testing.assert_allclose(out["B_sigma_mm"], 0.1 / 2.5)
@@ -46,9 +43,10 @@ def test_a_length_that_varies_is_reported():
     tracks, _ = _tracks_from_camera(cam)
     tracks.loc[10:, "C_x_px"] += 12.0  # the "rigid" frame grows by ~4.8 mm (3%)
     cal = calibrate_known_length(tracks, "A", "C", 160.8, (640, 480))
-    assert cal.quality["length_range_mm"] == pytest.approx(12.0 * cal.mm_per_px, rel=1e-6)
+    scale = cal.quality["mm_per_px"]
+    assert cal.quality["length_range_mm"] == pytest.approx(12.0 * scale, rel=1e-6)
     # half the frames at each length: a 1σ spread of half the jump, 1.5%
-    assert cal.quality["length_relative_spread"] == pytest.approx(6.0 * cal.mm_per_px / 160.8)
+    assert cal.quality["length_relative_spread"] == pytest.approx(6.0 * scale / 160.8)
     assert cal.warnings and "tilted" in cal.warnings[0]
 
 
@@ -58,8 +56,8 @@ def test_file_round_trip_and_refusals(tmp_path):
     cal = calibrate_known_length(tracks, "A", "C", 160.8, (640, 480))
     path = save_calibration(tmp_path / "cal.json", cal)
     again = load_calibration(path, image_size=(640, 480))
-    assert again.mm_per_px == pytest.approx(cal.mm_per_px)
-    assert again.x_axis_deg == pytest.approx(cal.x_axis_deg)
+    assert again.quality["mm_per_px"] == pytest.approx(cal.quality["mm_per_px"])
+    assert again.quality["x_axis_deg"] == pytest.approx(cal.quality["x_axis_deg"])
     with pytest.raises(CranktrackError, match="made for 640x480"):
         load_calibration(path, image_size=(1280, 720))
     data = json.loads(path.read_text())

@@ -66,5 +66,5 @@ def test_calibrated_scale_matches_the_render(run, small_h264):
     import json
 
     scene = json.loads(small_h264.scene.read_text())
-    assert run.calibration.mm_per_px == pytest.approx(1 / scene["camera"]["px_per_mm"],
+    assert run.calibration.quality["mm_per_px"] == pytest.approx(1 / scene["camera"]["px_per_mm"],
                                                       rel=2e-3)

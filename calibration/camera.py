@@ -1,0 +1,214 @@
+"""Camera intrinsics and lens distortion from photos of a calibration board.
+
+The OpenCV way, which users of OpenCV's and MATLAB's calibrators know:
+detect the board's corners in each photo (chessboard corners refined to
+sub-pixel, or ChArUco corners), then ``cv2.calibrateCamera`` for the camera
+matrix and distortion (k1, k2, p1, p2, k3). The quality figures are the RMS
+reprojection error overall and per view; a view whose error is far above
+the others is flagged, since one bad detection skews the whole solution.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from cranktrack.errors import CranktrackError
+
+#: A view is flagged when its RMS exceeds this multiple of the median view's.
+BAD_VIEW_FACTOR = 3.0
+
+
+@dataclass(frozen=True)
+class Board:
+    """A calibration board.
+
+    ``kind`` is ``"chessboard"`` (``size`` = inner corners, e.g. (9, 6)) or
+    ``"charuco"`` (``size`` = squares, e.g. (5, 7), with ``marker_mm`` and an
+    ArUco ``dictionary`` name such as ``"DICT_6X6_250"``). ``square_mm`` is the
+    side of one square, mm.
+    """
+
+    kind: str
+    size: tuple[int, int]
+    square_mm: float
+    marker_mm: float | None = None
+    dictionary: str = "DICT_6X6_250"
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("chessboard", "charuco"):
+            raise CranktrackError(f"unknown board kind {self.kind!r}; use chessboard or charuco")
+        if min(self.size) < 2 or not self.square_mm > 0:
+            raise CranktrackError(f"board {self.size[0]}x{self.size[1]} with {self.square_mm} mm "
+                                  "squares is not a usable board")
+        if self.kind == "charuco":
+            if not self.marker_mm or not 0 < self.marker_mm < self.square_mm:
+                raise CranktrackError("a ChArUco board needs a marker size smaller than its "
+                                      "squares (--marker-mm)")
+            if not hasattr(cv2.aruco, self.dictionary):
+                raise CranktrackError(f"unknown ArUco dictionary {self.dictionary!r}, e.g. "
+                                      "DICT_6X6_250")
+
+    def object_points(self) -> NDArray[np.float32]:
+        """Chessboard inner corners in board mm (z = 0), row by row."""
+        nx, ny = self.size
+        grid = np.mgrid[0:nx, 0:ny].T.reshape(-1, 2).astype(np.float32)
+        return np.hstack([grid * self.square_mm, np.zeros((nx * ny, 1), np.float32)])
+
+    def _charuco(self) -> tuple[cv2.aruco.CharucoBoard, cv2.aruco.CharucoDetector]:
+        d = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, self.dictionary))
+        board = cv2.aruco.CharucoBoard(self.size, self.square_mm, self.marker_mm, d)
+        return board, cv2.aruco.CharucoDetector(board)
+
+    def detect(self, grey: NDArray[np.uint8]) -> tuple[NDArray, NDArray] | None:
+        """Board points (mm, (n, 3)) and their image positions (px, (n, 1, 2)), or None."""
+        if self.kind == "chessboard":
+            found, corners = cv2.findChessboardCorners(
+                grey, self.size, flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE)
+            if not found:
+                return None
+            corners = cv2.cornerSubPix(
+                grey, corners, (11, 11), (-1, -1),
+                (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 30, 0.01))
+            return self.object_points(), corners.reshape(-1, 1, 2)
+        board, detector = self._charuco()
+        corners, ids, _, _ = detector.detectBoard(grey)
+        if corners is None or len(corners) < 6:
+            return None
+        obj, img = board.matchImagePoints(corners, ids)
+        return obj.reshape(-1, 3).astype(np.float32), img.reshape(-1, 1, 2).astype(np.float32)
+
+    def to_dict(self) -> dict:
+        d = {"kind": self.kind, "size": list(self.size), "square_mm": self.square_mm}
+        if self.kind == "charuco":
+            d |= {"marker_mm": self.marker_mm, "dictionary": self.dictionary}
+        return d
+
+
+@dataclass(frozen=True)
+class CameraCalibration:
+    """Intrinsics: ``camera_matrix`` (3×3, px), ``distortion`` (k1, k2, p1, p2, k3),
+    ``image_size`` (width, height), RMS reprojection error overall and per view
+    (px), the views used and those flagged as bad."""
+
+    camera_matrix: NDArray[np.float64]
+    distortion: NDArray[np.float64]
+    image_size: tuple[int, int]
+    rms_px: float
+    per_view_rms_px: dict[str, float]
+    bad_views: tuple[str, ...] = ()
+    skipped: tuple[str, ...] = ()
+    board: dict = field(default_factory=dict)
+    flags: tuple[str, ...] = ()
+
+    @property
+    def fx(self) -> float:
+        return float(self.camera_matrix[0, 0])
+
+    @property
+    def fy(self) -> float:
+        return float(self.camera_matrix[1, 1])
+
+    def undistort_points(self, xy_px: NDArray) -> NDArray[np.float64]:
+        """Image points (px, (n, 2)) to ideal pinhole points (px, same K), NaN kept."""
+        pts = np.asarray(xy_px, np.float64).reshape(-1, 2)
+        out = np.full_like(pts, np.nan)
+        ok = np.isfinite(pts).all(axis=1)
+        if ok.any():
+            und = cv2.undistortPoints(pts[ok].reshape(-1, 1, 2), self.camera_matrix,
+                                      self.distortion, P=self.camera_matrix)
+            out[ok] = und.reshape(-1, 2)
+        return out
+
+    def to_dict(self) -> dict:
+        return {
+            "camera_matrix": self.camera_matrix.tolist(),
+            "distortion": self.distortion.ravel().tolist(),
+            "image_size": list(self.image_size),
+            "rms_px": self.rms_px,
+            "per_view_rms_px": self.per_view_rms_px,
+            "bad_views": list(self.bad_views),
+            "skipped": list(self.skipped),
+            "board": self.board,
+            "flags": list(self.flags),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> CameraCalibration:
+        return cls(np.asarray(d["camera_matrix"], float), np.asarray(d["distortion"], float),
+                   (int(d["image_size"][0]), int(d["image_size"][1])), float(d["rms_px"]),
+                   dict(d.get("per_view_rms_px", {})), tuple(d.get("bad_views", ())),
+                   tuple(d.get("skipped", ())), dict(d.get("board", {})),
+                   tuple(d.get("flags", ())))
+
+
+FLAG_NAMES = {"fix_aspect_ratio": cv2.CALIB_FIX_ASPECT_RATIO,
+              "zero_tangent": cv2.CALIB_ZERO_TANGENT_DIST,
+              "fix_k3": cv2.CALIB_FIX_K3}
+
+
+def _grey(path: Path) -> NDArray[np.uint8]:
+    img = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    if img is None:
+        raise CranktrackError(f"{path} is not an image OpenCV can read")
+    return img
+
+
+def calibrate_camera(images: list[str | os.PathLike], board: Board,
+                     flags: tuple[str, ...] = ()) -> CameraCalibration:
+    """Calibrate from photos of ``board``.
+
+    Photos where the board is not found are skipped (and listed); at least
+    three views are needed. ``flags`` are names from :data:`FLAG_NAMES`
+    (e.g. ``("fix_aspect_ratio",)`` for fx = fy).
+
+    Raises
+    ------
+    CranktrackError
+        Unreadable images, mixed image sizes, or fewer than three usable views.
+    """
+    unknown = set(flags) - set(FLAG_NAMES)
+    if unknown:
+        raise CranktrackError(f"unknown calibration flag(s) {sorted(unknown)}; known: "
+                              + ", ".join(FLAG_NAMES))
+    obj, img, names, skipped = [], [], [], []
+    size = None
+    for p in map(Path, images):
+        if not p.is_file():
+            raise CranktrackError(f"{p} does not exist")
+        grey = _grey(p)
+        this = (grey.shape[1], grey.shape[0])
+        if size is None:
+            size = this
+        elif this != size:
+            raise CranktrackError(f"{p} is {this[0]}x{this[1]} but the first photo was "
+                                  f"{size[0]}x{size[1]}; calibrate one camera setting at a time")
+        found = board.detect(grey)
+        if found is None:
+            skipped.append(p.name)
+            continue
+        obj.append(found[0])
+        img.append(found[1])
+        names.append(p.name)
+    if len(obj) < 3:
+        raise CranktrackError(
+            f"the board was found in {len(obj)} of {len(images)} photo(s); at least 3 views are "
+            f"needed (check --board {board.size[0]}x{board.size[1]} and the board kind)")
+    flag_bits = 0
+    for f in flags:
+        flag_bits |= FLAG_NAMES[f]
+    rms, K, dist, rvecs, tvecs = cv2.calibrateCamera(obj, img, size, None, None, flags=flag_bits)
+    per_view = {}
+    for name, o, i, r, t in zip(names, obj, img, rvecs, tvecs, strict=True):
+        proj, _ = cv2.projectPoints(o, r, t, K, dist)
+        d = proj.reshape(-1, 2) - i.reshape(-1, 2)
+        per_view[name] = float(np.sqrt(np.mean(np.sum(d**2, axis=-1))))
+    med = float(np.median(list(per_view.values())))
+    bad = tuple(n for n, e in per_view.items() if e > BAD_VIEW_FACTOR * med)
+    return CameraCalibration(K, dist.ravel(), size, float(rms), per_view, bad, tuple(skipped),
+                             board.to_dict(), tuple(flags))
