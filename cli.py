@@ -118,6 +118,11 @@ def _track(args: argparse.Namespace, video: Path, out: Path):
     from cranktrack.tracker.markers import DEFAULT_MARKERS, MarkerSpec
 
     known = parse_known_length(args.known_length) if args.known_length else None
+    plane = None
+    if getattr(args, "calibration", None):
+        from cranktrack.calibration.file import load_calibration
+
+        plane = load_calibration(args.calibration)
     specs = DEFAULT_MARKERS
     if getattr(args, "marker", None):
         given = {}
@@ -135,7 +140,8 @@ def _track(args: argparse.Namespace, video: Path, out: Path):
 
         return track_run(video, out, known, specs, fps=getattr(args, "fps_images", None),
                          window_s=args.window_s,
-                         fill_gaps_frames=getattr(args, "fill_gaps", 0), on_start=start,
+                         fill_gaps_frames=getattr(args, "fill_gaps", 0), calibration=plane,
+                         on_start=start,
                          on_frame=lambda i: bar.update(1))
 
 
@@ -151,7 +157,8 @@ def cmd_track(args: argparse.Namespace) -> int:
                       for m in [c[:-3] for c in run.tracks.columns if c.endswith("_ok")])
     print(f"tracked {len(run.tracks)} frames (markers found: {found})")
     if run.calibration is None:
-        print("no --known-length given: tracks are in pixels only, no kinematics")
+        print("no --known-length or --calibration given: tracks are in pixels only, "
+              "no kinematics")
     for f in run.files.values():
         print(f"wrote {f}")
     return 0
@@ -237,6 +244,90 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _board(args: argparse.Namespace):
+    from cranktrack.calibration.camera import Board
+
+    try:
+        nx, ny = (int(v) for v in args.board.lower().split("x"))
+    except ValueError:
+        raise CranktrackError(f"--board {args.board!r} is not COLSxROWS, e.g. 9x6") from None
+    if args.charuco:
+        return Board("charuco", (nx, ny), args.square_mm, args.marker_mm, args.dictionary)
+    return Board("chessboard", (nx, ny), args.square_mm)
+
+
+def cmd_calibrate_camera(args: argparse.Namespace) -> int:
+    from cranktrack.calibration.camera import calibrate_camera
+    from cranktrack.calibration.file import save_camera
+
+    flags = ("fix_aspect_ratio",) if args.fix_aspect_ratio else ()
+    cal = calibrate_camera(args.images, _board(args), flags)
+    path = save_camera(args.out, cal)
+    K = cal.camera_matrix
+    print(f"{len(cal.per_view_rms_px)} views used"
+          + (f", board not found in: {', '.join(cal.skipped)}" if cal.skipped else ""))
+    print(f"fx {K[0, 0]:.2f}  fy {K[1, 1]:.2f}  cx {K[0, 2]:.2f}  cy {K[1, 2]:.2f} px; "
+          f"distortion k1 {cal.distortion[0]:.4f} k2 {cal.distortion[1]:.4f} "
+          f"p1 {cal.distortion[2]:.5f} p2 {cal.distortion[3]:.5f} k3 {cal.distortion[4]:.4f}")
+    print(f"RMS reprojection error {cal.rms_px:.3f} px")
+    for name, e in cal.per_view_rms_px.items():
+        flag = "  <- bad view: retake or drop it" if name in cal.bad_views else ""
+        print(f"  {name:30s} {e:.3f} px{flag}")
+    print(f"wrote {path}")
+    return 0
+
+
+def cmd_calibrate_plane(args: argparse.Namespace) -> int:
+    import cv2
+    import pandas as pd
+
+    from cranktrack.calibration.file import load_camera, save_calibration
+    from cranktrack.calibration.plane import board_plane, points_plane
+
+    camera = load_camera(args.camera) if args.camera else None
+    if args.points:
+        try:
+            pts = pd.read_csv(args.points)
+            cols = ["x_px", "y_px", "x_mm", "y_mm"]
+            pts = pts[cols].to_numpy(float)
+        except (OSError, KeyError, ValueError, pd.errors.ParserError) as e:
+            raise CranktrackError(f"{args.points} must be a CSV with columns x_px, y_px, x_mm, "
+                                  f"y_mm ({e})") from None
+        if args.image is None and camera is None:
+            raise CranktrackError("give the image size with the plane photo, or --camera")
+        size = camera.image_size if camera is not None else None
+        if args.image:
+            img = cv2.imread(args.image, cv2.IMREAD_GRAYSCALE)
+            if img is None:
+                raise CranktrackError(f"{args.image} is not an image OpenCV can read")
+            size = (img.shape[1], img.shape[0])
+        cal = points_plane(pts[:, :2], pts[:, 2:], size, camera)
+    else:
+        if args.image is None:
+            raise CranktrackError("give a photo of the board lying in the mechanism's plane, "
+                                  "or --points")
+        grey = cv2.imread(args.image, cv2.IMREAD_GRAYSCALE)
+        if grey is None:
+            raise CranktrackError(f"{args.image} is not an image OpenCV can read")
+        cal = board_plane(grey, _board(args), camera)
+    path = save_calibration(args.out, cal)
+    q = cal.quality
+    print(f"plane from {q['points']} points: homography residual "
+          f"{q['homography_rms_px']:.3f} px, {q['homography_rms_mm']:.4f} mm"
+          + ("" if camera else " (no --camera: the lens is taken as distortion-free)"))
+    print(f"wrote {path}")
+    return 0
+
+
+def _add_board_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--board", default="9x6",
+                   help="chessboard inner corners, or ChArUco squares, COLSxROWS (9x6)")
+    p.add_argument("--square-mm", type=_positive, default=25.0, help="square side, mm (25)")
+    p.add_argument("--charuco", action="store_true", help="the board is a ChArUco board")
+    p.add_argument("--marker-mm", type=_positive, help="ChArUco marker side, mm")
+    p.add_argument("--dictionary", default="DICT_6X6_250", help="ArUco dictionary (DICT_6X6_250)")
+
+
 def _add_scene_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--start-s", type=_non_negative, default=0.5,
                    help="time the spool starts, s (0.5)")
@@ -273,11 +364,31 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--marker", action="append", metavar="NAME=COLOUR",
                    help="marker colour (red, green, blue, yellow, … or a hue in degrees); "
                         "repeat per marker. Defaults: A=green B=red C=blue")
+    p.add_argument("--calibration", metavar="PLANE.json",
+                   help="plane calibration from `cranktrack calibrate plane`; with it, "
+                        "--known-length is only checked")
     p.add_argument("--fill-gaps", type=int, default=0, metavar="N",
                    help="interpolate gaps of up to N frames, flagged as interpolated (0: off)")
     p.add_argument("--fps", dest="fps_images", type=_positive,
                    help="frame rate of an image folder (videos use their own timestamps)")
     p.set_defaults(func=cmd_track)
+
+    p = sub.add_parser("calibrate", help="camera intrinsics, or the mechanism's plane")
+    cal_sub = p.add_subparsers(dest="what", required=True, metavar="WHAT")
+    q = cal_sub.add_parser("camera", help="intrinsics and lens distortion from board photos")
+    q.add_argument("images", nargs="+", help="photos of the board in many poses")
+    _add_board_options(q)
+    q.add_argument("--fix-aspect-ratio", action="store_true", help="force fx = fy")
+    q.add_argument("--out", required=True, help="camera calibration file to write (JSON)")
+    q.set_defaults(func=cmd_calibrate_camera)
+    q = cal_sub.add_parser("plane", help="pixels to mm in the mechanism's plane")
+    q.add_argument("image", nargs="?", help="photo of the board lying in the mechanism's plane")
+    _add_board_options(q)
+    q.add_argument("--camera", help="camera calibration file (undistorts first)")
+    q.add_argument("--points", help="CSV of 4+ points: x_px, y_px, x_mm, y_mm (instead of a "
+                                    "board)")
+    q.add_argument("--out", required=True, help="plane calibration file to write (JSON)")
+    q.set_defaults(func=cmd_calibrate_plane)
 
     p = sub.add_parser("compare", help="fit the spool model to a run and compare")
     p.add_argument("run", help="run folder written by `cranktrack track`")
@@ -317,6 +428,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("cranktrack: interrupted; files already written are kept", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # output piped into e.g. `head`, which stopped reading
+        sys.stderr.close()
+        return 0
 
 
 if __name__ == "__main__":

@@ -16,8 +16,12 @@ from pathlib import Path
 import pandas as pd
 
 from cranktrack.calibration.file import save_calibration
-from cranktrack.calibration.known_length import calibrate_known_length
-from cranktrack.calibration.plane import PlaneCalibration, add_plane_coordinates
+from cranktrack.calibration.known_length import calibrate_known_length, check_length
+from cranktrack.calibration.plane import (
+    PlaneCalibration,
+    add_plane_coordinates,
+    align_to_markers,
+)
 from cranktrack.errors import CranktrackError
 from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic, write_text_atomic
 from cranktrack.kinematics.compare import Comparison, compare_spool
@@ -60,6 +64,7 @@ def track_run(
     fps: float | None = None,
     window_s: float | None = None,
     fill_gaps_frames: int = 0,
+    calibration: PlaneCalibration | None = None,
     on_start: Callable[[int | None], None] | None = None,
     on_frame: Callable[[int], None] | None = None,
 ) -> RunResult:
@@ -68,8 +73,11 @@ def track_run(
     Writes ``tracks.csv`` (pixels, plus plane mm when ``known_length`` is
     given), ``calibration.json`` and ``kinematics.csv`` (only with a scale),
     and ``run.json`` with the provenance and quality figures.
-    ``window_s`` fixes the differentiator's window (s); by default it is
-    chosen from the data. ``fill_gaps_frames`` > 0 interpolates gaps up to that many frames long,
+    ``calibration`` (a plane calibration file's content) maps pixels to mm;
+    then ``known_length``, if given, is only checked against it. Without it,
+    ``known_length`` sets a single scale. ``window_s`` fixes the
+    differentiator's window (s); by default it is chosen from the data.
+    ``fill_gaps_frames`` > 0 interpolates gaps up to that many frames long,
     flagged ``_status = "interpolated"`` (off by default: gaps stay gaps).
     ``on_start(expected_frames)`` and ``on_frame(index)`` report progress.
     """
@@ -104,7 +112,7 @@ def track_run(
     files["run"] = write_json_atomic(folder / "run.json", run_info)
 
     cal = kinematics = None
-    if known_length is not None:
+    if known_length is not None or calibration is not None:
         never = [s for s in specs if result.found_fraction[s.name] == 0]
         if never:
             s0 = never[0]
@@ -112,8 +120,18 @@ def track_run(
                 f"marker {s0.name} (hue {s0.hue_deg:g}°) was not found in any frame, so there "
                 f"are no kinematics; {folder / 'tracks.csv'} has what was found; check the "
                 "marker's colour (--marker NAME=COLOUR)")
-        a, b, length = known_length
-        cal = calibrate_known_length(tracks, a, b, length, (source.width, source.height))
+        if calibration is not None:
+            if calibration.image_size != (source.width, source.height):
+                size = calibration.image_size
+                raise CranktrackError(
+                    f"the calibration was made for {size[0]}x{size[1]} images, but {video} is "
+                    f"{source.width}x{source.height}; calibrate for this camera setting")
+            cal = align_to_markers(calibration, tracks)
+            if known_length is not None:
+                cal = check_length(cal, tracks, *known_length)
+        else:
+            a, b, length = known_length
+            cal = calibrate_known_length(tracks, a, b, length, (source.width, source.height))
         warnings += list(cal.warnings)
         files["calibration"] = save_calibration(folder / "calibration.json", cal)
         tracks = add_plane_coordinates(tracks, cal, names)

@@ -107,3 +107,27 @@ def calibrate_known_length(
             "a rigid length should not, so the camera may be tilted or the lens distorting")
     return PlaneCalibration("known-length", similarity(mm_per_px, o, axis), tuple(image_size),
                             None, quality, tuple(warnings))
+
+
+def check_length(cal: PlaneCalibration, tracks: pd.DataFrame, a: str, b: str,
+                 length_mm: float) -> PlaneCalibration:
+    """Add a check-length figure to a calibration: how far the mapped a–b
+    distance is from ``length_mm`` (median over the run, mm) and its spread."""
+    both = tracks[f"{a}_ok"].to_numpy(bool) & tracks[f"{b}_ok"].to_numpy(bool)
+    if not both.any():
+        raise CranktrackError(f"markers {a} and {b} are never found in the same frame, so "
+                              "the check length cannot be measured")
+    xa, ya = cal.to_plane(tracks.loc[both, f"{a}_x_px"].to_numpy(),
+                          tracks.loc[both, f"{a}_y_px"].to_numpy())
+    xb, yb = cal.to_plane(tracks.loc[both, f"{b}_x_px"].to_numpy(),
+                          tracks.loc[both, f"{b}_y_px"].to_numpy())
+    d = np.hypot(xa - xb, ya - yb)
+    residual = float(np.median(d) - length_mm)
+    quality = {**cal.quality, "check_length": f"{a}-{b}", "check_length_mm": length_mm,
+               "check_residual_mm": residual, "check_std_mm": float(np.std(d))}
+    warnings = list(cal.warnings)
+    if abs(residual) > 0.01 * length_mm:
+        warnings.append(f"the calibrated {a}-{b} distance is {residual:+.2f} mm off the given "
+                        f"{length_mm} mm; check the calibration or the length")
+    return PlaneCalibration(cal.method, cal.homography, cal.image_size, cal.camera, quality,
+                            tuple(warnings))

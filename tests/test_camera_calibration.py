@@ -1,0 +1,56 @@
+"""Camera calibration against OpenCV's published results for real photos.
+
+The photos and reference files live in ../shared/data/calibration/ (see the
+PROVENANCE.md there); nobody here wrote them or their numbers.
+"""
+
+from pathlib import Path
+
+import pytest
+
+from cranktrack.calibration.camera import Board, calibrate_camera
+from cranktrack.errors import CranktrackError
+
+DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "calibration"
+needs_data = pytest.mark.skipif(not DATA.is_dir(),
+                                reason=f"reference calibration photos not found at {DATA}")
+
+
+@needs_data
+def test_chessboard_matches_published_intrinsics():
+    images = sorted((DATA / "chessboard_9x6").glob("left*.jpg"))
+    assert len(images) == 13
+    cal = calibrate_camera(images, Board("chessboard", (9, 6), 25.0), ("fix_aspect_ratio",))
+    # left_intrinsics.yml: fx = fy = 535.9157, cx 342.2832, cy 235.5708, RMS 0.39259 px.
+    assert cal.fx == pytest.approx(535.9157, rel=0.01)
+    assert cal.fy == cal.fx
+    assert cal.rms_px == pytest.approx(0.39259, rel=0.10)
+    assert cal.camera_matrix[0, 2] == pytest.approx(342.2832, abs=3.0)
+    assert cal.camera_matrix[1, 2] == pytest.approx(235.5708, abs=3.0)
+    # The published per-view errors single out left02 (1.18 px against ≤ 0.38).
+    assert cal.bad_views == ("left02.jpg",)
+    assert cal.per_view_rms_px["left02.jpg"] == pytest.approx(1.182, rel=0.15)
+
+
+@needs_data
+def test_charuco_matches_published_focal_lengths():
+    images = sorted((DATA / "charuco_5x7").glob("img_0*.jpg"))
+    cal = calibrate_camera(images, Board("charuco", (5, 7), 40.0, 20.0, "DICT_6X6_250"))
+    # tutorial_camera_charuco.yml: fx 452.5107, fy 456.7671, RMS 0.18235 px.
+    assert cal.fx == pytest.approx(452.5107, rel=0.02)
+    assert cal.fy == pytest.approx(456.7671, rel=0.02)
+    assert cal.rms_px == pytest.approx(0.18235, rel=0.10)
+
+
+@needs_data
+def test_wrong_board_size_is_one_clear_error():
+    images = sorted((DATA / "chessboard_9x6").glob("left0*.jpg"))
+    with pytest.raises(CranktrackError, match="found in 0 of"):
+        calibrate_camera(images, Board("chessboard", (8, 5), 25.0))
+
+
+def test_bad_board_descriptions():
+    with pytest.raises(CranktrackError, match="marker size"):
+        Board("charuco", (5, 7), 40.0, 50.0)
+    with pytest.raises(CranktrackError, match="unknown board kind"):
+        Board("circles", (4, 11), 20.0)
