@@ -59,7 +59,7 @@ def _version() -> str:
 def track_run(
     video: str | os.PathLike,
     out_dir: str | os.PathLike,
-    known_length: tuple[str, str, float] | None,
+    known_length: tuple[str, str, float] | None = None,
     specs: tuple[MarkerSpec, ...] = DEFAULT_MARKERS,
     fps: float | None = None,
     window_s: float | None = None,

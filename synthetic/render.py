@@ -130,7 +130,7 @@ def draw_capsule(
 def render_frame(
     points_px: dict[str, NDArray[np.float64]],
     size: tuple[int, int],
-    px_per_mm: float,
+    px_per_mm: float | dict[str, float],
     style: Style | None = None,
 ) -> NDArray[np.float32]:
     """Draw one frame of the crank-slider.
@@ -141,8 +141,9 @@ def render_frame(
         Image positions (x, y), px, of ``"A"``, ``"B"``, ``"C"``.
     size : (width, height)
         Image size, px.
-    px_per_mm : float
-        Scale used to size links and markers, px/mm.
+    px_per_mm : float or dict
+        Scale used to size links and markers, px/mm: one for the whole image,
+        or one per point (a tilted camera sees near things larger).
     style : Style, optional
         Colours and sizes.
 
@@ -156,15 +157,20 @@ def render_frame(
     img = np.empty((h, w, 3), dtype=np.float32)
     img[...] = np.asarray(style.background, dtype=np.float32)
     A, B, C = (np.asarray(points_px[k], dtype=float) for k in ("A", "B", "C"))
+
+    def scale(*names: str) -> float:
+        if isinstance(px_per_mm, dict):
+            return float(np.mean([px_per_mm[n] for n in names]))
+        return float(px_per_mm)
+
     S = style.supersample
-    draw_capsule(img, A, C, style.frame_half_width_mm * px_per_mm, style.frame_link, S)
-    draw_capsule(img, A, B, style.crank_half_width_mm * px_per_mm, style.crank, S)
-    draw_capsule(img, B, C, style.wire_half_width_mm * px_per_mm, style.wire, S)
-    r = style.marker_radius_mm * px_per_mm
+    draw_capsule(img, A, C, style.frame_half_width_mm * scale("A", "C"), style.frame_link, S)
+    draw_capsule(img, A, B, style.crank_half_width_mm * scale("A", "B"), style.crank, S)
+    draw_capsule(img, B, C, style.wire_half_width_mm * scale("B", "C"), style.wire, S)
     for name, colour in style.markers.items():
         if name in points_px:
             p = np.asarray(points_px[name], dtype=float)
-            draw_capsule(img, p, p, r, colour, S)
+            draw_capsule(img, p, p, style.marker_radius_mm * scale(name), colour, S)
     if style.illuminant != (1.0, 1.0, 1.0):
         img *= np.asarray(style.illuminant, dtype=np.float32)
     return img

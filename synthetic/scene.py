@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic
-from cranktrack.synthetic.camera import Camera
+from cranktrack.synthetic.camera import Camera, PinholeCamera
 from cranktrack.synthetic.render import Style, draw_capsule, render_frame, to_uint8
 from cranktrack.synthetic.scenarios import SpoolScenario
 from cranktrack.synthetic.truth import truth_table
@@ -62,26 +62,44 @@ class SceneFiles:
     scene: Path
 
 
-def scenario_camera(scenario: SpoolScenario, size: tuple[int, int]) -> Camera:
-    """The default framing: the whole motion (plus a marker's margin) centred."""
+def scenario_camera(scenario: SpoolScenario, size: tuple[int, int], tilt_deg: float = 0.0,
+                    k1: float = 0.0, k2: float = 0.0) -> Camera | PinholeCamera:
+    """The default framing: the whole motion centred, filling 80 % of the image.
+
+    Straight overhead without distortion: the exact similarity camera; with a
+    tilt or distortion: a 60° pinhole at the distance that frames the same.
+    """
     lo, hi = scenario.extent_mm()
-    return Camera.framing(size[0], size[1], lo, hi, fill=0.8)
+    if tilt_deg == 0 and k1 == 0 and k2 == 0:
+        return Camera.framing(size[0], size[1], lo, hi, fill=0.8)
+    return PinholeCamera.framing(size[0], size[1], lo, hi, fill=0.8, tilt_deg=tilt_deg,
+                                 k1=k1, k2=k2)
 
 
-def _expose(scenario: SpoolScenario, camera: Camera, settings: RenderSettings, style: Style,
-            t: float) -> np.ndarray:
-    """One frame; with an exposure, the mean of renders across it (motion blur)."""
+def _expose(scenario: SpoolScenario, camera: Camera | PinholeCamera, settings: RenderSettings,
+            style: Style, t: float, cover: tuple[str, ...] = ()) -> np.ndarray:
+    """One frame: drawn in the ideal image (the mean of renders across the
+    exposure, for motion blur), covers added, then bent through the lens."""
     if settings.exposure_s > 0:
         times = t + settings.exposure_s * (np.linspace(0, 1, settings.blur_samples) - 0.5)
     else:
         times = np.array([t])
     motion = scenario.motion(times)
+    canvas, offset = camera.ideal_canvas()
     img = None
     for j in range(len(times)):
-        pts = {k: camera.project(v[j]) for k, v in motion.points_mm.items()}
-        frame = render_frame(pts, settings.size, camera.px_per_mm, style)
+        pts = {k: camera.ideal_project(v[j]) + np.asarray(offset)
+               for k, v in motion.points_mm.items()}
+        scales = {k: float(camera.local_scale(v[j])) for k, v in motion.points_mm.items()}
+        frame = render_frame(pts, canvas, scales, style)
         img = frame if img is None else img + frame
-    return img / np.float32(len(times))
+    img /= np.float32(len(times))
+    mid = scenario.motion(np.array([t]))
+    for name in cover:
+        xy = mid.points_mm[name][0]
+        _draw_cover(img, camera.ideal_project(xy) + np.asarray(offset),
+                    style.marker_radius_mm * float(camera.local_scale(xy)))
+    return camera.warp(img, offset)
 
 
 def _draw_cover(img: np.ndarray, centre_px: np.ndarray, radius_px: float) -> None:
@@ -105,7 +123,7 @@ def render_scene(
     out_dir: str | os.PathLike,
     settings: RenderSettings = RenderSettings(),
     style: Style | None = None,
-    camera: Camera | None = None,
+    camera: Camera | PinholeCamera | None = None,
     on_frame: Callable[[int, int], None] | None = None,
     hidden: dict[str, Iterable[int]] | None = None,
     covered: dict[str, Iterable[int]] | None = None,
@@ -136,11 +154,8 @@ def render_scene(
         for i in range(n):
             shown = Style(**{**style.__dict__, "markers": {
                 k: c for k, c in style.markers.items() if i not in hide.get(k, ())}})
-            img = _expose(scenario, camera, settings, shown, float(t[i]))
-            for name, frames in cover.items():
-                if i in frames:
-                    _draw_cover(img, camera.project(motion.points_mm[name][i]),
-                                style.marker_radius_mm * camera.px_per_mm)
+            covering = tuple(k for k, frames in cover.items() if i in frames)
+            img = _expose(scenario, camera, settings, shown, float(t[i]), covering)
             if settings.light_gradient:
                 img *= _light(settings, float(t[i]))
             writer.write(to_uint8(img, settings.noise_dn, rng), float(t[i]))
@@ -162,7 +177,8 @@ def render_scene(
         },
         "style": {
             "marker_radius_mm": style.marker_radius_mm,
-            "marker_radius_px": style.marker_radius_mm * camera.px_per_mm,
+            "marker_radius_px": float(style.marker_radius_mm
+                                      * np.median(camera.local_scale(motion.points_mm["B"]))),
             "markers_rgb": style.markers,
             "background_rgb": style.background,
             "illuminant": style.illuminant,
