@@ -79,6 +79,10 @@ def _add_render_options(p: argparse.ArgumentParser, seconds: float = 2.5,
     p.add_argument("--lossless", action="store_true",
                    help="bit-exact RGB H.264 instead of ordinary H.264")
     p.add_argument("--crf", type=int, default=20, help="H.264 quality when lossy (20)")
+    p.add_argument("--tilt-deg", type=float, default=0.0,
+                   help="camera tilt off the plane normal, degrees (0)")
+    p.add_argument("--k1", type=float, default=0.0, help="radial distortion k1 (0; <0 barrel)")
+    p.add_argument("--k2", type=float, default=0.0, help="radial distortion k2 (0)")
 
 
 def _render_settings(args: argparse.Namespace):
@@ -101,14 +105,42 @@ def _render(args: argparse.Namespace, out: Path):
     from cranktrack.synthetic.scene import render_scene
 
     settings = _render_settings(args)
+    scenario = _spool_scenario(args)
     with _progress("render", settings.n_frames) as bar:
-        return render_scene(_spool_scenario(args), out, settings,
+        return render_scene(scenario, out, settings, camera=_camera(args, scenario),
                             on_frame=lambda i, n: bar.update(1))
 
 
+def _camera(args: argparse.Namespace, scenario, pinhole: bool = False):
+    from cranktrack.synthetic.scene import scenario_camera
+
+    return scenario_camera(scenario, args.size, tilt_deg=args.tilt_deg, k1=args.k1, k2=args.k2,
+                           pinhole=pinhole)
+
+
 def cmd_synth(args: argparse.Namespace) -> int:
+    if args.scenario == "board":
+        return _synth_board(args)
     files = _render(args, Path(args.out))
     print(f"wrote {files.video}, {files.truth.name} and {files.scene.name}")
+    return 0
+
+
+def _synth_board(args: argparse.Namespace) -> int:
+    from cranktrack.synthetic.board import BoardSpec, intrinsics_views, plane_view, write_views
+
+    # The same camera as `synth spool` with these options (as a pinhole, to photograph boards).
+    cam = _camera(args, _spool_scenario(args), pinhole=True)
+    nx, ny = (int(v) for v in args.board.lower().split("x"))
+    out = Path(args.out)
+    views = write_views(intrinsics_views(cam, BoardSpec((9, 6), 12.0), args.views, args.seed),
+                        out, "camera_view")
+    plane_board = BoardSpec((nx, ny), args.square_mm)
+    plane = write_views([plane_view(cam, plane_board, (3.0, -12.0))], out, "plane_board")
+    print(f"wrote {len(views)} photos of a 9x6 chessboard of 12 mm squares for "
+          f"`calibrate camera` ({views[0].name} …) and {plane[0].name}, a {nx}x{ny} board of "
+          f"{args.square_mm:g} mm squares lying in the mechanism's plane, for `calibrate "
+          f"plane`, in {out}")
     return 0
 
 
@@ -351,10 +383,17 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("synth", help="render a synthetic scene with its ground truth")
-    p.add_argument("scenario", choices=["spool"], help="what to render")
+    p.add_argument("scenario", choices=["spool", "board"],
+                   help="spool: the Table 2.2 test bed; board: calibration photos of the "
+                        "same synthetic camera")
     p.add_argument("--out", required=True, help="output folder")
     _add_render_options(p, seconds=5.0)
     _add_scene_options(p)
+    p.add_argument("--board", default="11x5",
+                   help="(board) inner corners of the board lying in the plane (11x5)")
+    p.add_argument("--square-mm", type=_positive, default=14.0,
+                   help="(board) its square side, mm (14)")
+    p.add_argument("--views", type=int, default=15, help="(board) camera photos (15)")
     p.set_defaults(func=cmd_synth)
 
     p = sub.add_parser("track", help="track a video into a run folder")

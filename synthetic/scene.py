@@ -63,14 +63,16 @@ class SceneFiles:
 
 
 def scenario_camera(scenario: SpoolScenario, size: tuple[int, int], tilt_deg: float = 0.0,
-                    k1: float = 0.0, k2: float = 0.0) -> Camera | PinholeCamera:
+                    k1: float = 0.0, k2: float = 0.0, pinhole: bool = False
+                    ) -> Camera | PinholeCamera:
     """The default framing: the whole motion centred, filling 80 % of the image.
 
     Straight overhead without distortion: the exact similarity camera; with a
-    tilt or distortion: a 60° pinhole at the distance that frames the same.
+    tilt or distortion (or ``pinhole=True``): a 60° pinhole at the distance
+    that frames the same.
     """
     lo, hi = scenario.extent_mm()
-    if tilt_deg == 0 and k1 == 0 and k2 == 0:
+    if tilt_deg == 0 and k1 == 0 and k2 == 0 and not pinhole:
         return Camera.framing(size[0], size[1], lo, hi, fill=0.8)
     return PinholeCamera.framing(size[0], size[1], lo, hi, fill=0.8, tilt_deg=tilt_deg,
                                  k1=k1, k2=k2)
