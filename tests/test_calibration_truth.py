@@ -74,3 +74,39 @@ def test_known_length_alone_is_far_worse_here(setup):
     assert theta_rms > 0.3 and pos_rms > 0.3
     # ... and the run says so: the "rigid" crank length wanders.
     assert any("rigid length L2" in w for w in run.warnings)
+
+
+def test_four_or_more_known_points_map_the_plane(setup, tmp_path):
+    # Points whose plane position is known (e.g. holes in the base plate), seen
+    # through the tilted, distorting camera: their true pixels come from the
+    # camera model, nobody's estimate.
+    cam, camera, _, _, _ = setup
+    plane_mm = np.array([[0, 0], [160, 0], [160, 60], [0, 60], [80, 30], [40, -20]], float)
+    image_px = cam.project(plane_mm)
+    pts = pd.DataFrame({"x_px": image_px[:, 0], "y_px": image_px[:, 1],
+                        "x_mm": plane_mm[:, 0], "y_mm": plane_mm[:, 1]})
+    pts.to_csv(tmp_path / "points.csv", index=False)
+    from cranktrack.calibration.file import save_camera
+    from cranktrack.cli import main
+
+    save_camera(tmp_path / "camera.json", camera)
+    assert main(["calibrate", "plane", "--points", str(tmp_path / "points.csv"), "--camera",
+                 str(tmp_path / "camera.json"), "--out", str(tmp_path / "plane.json")]) == 0
+    plane = load_calibration(tmp_path / "plane.json", (640, 360))
+    # Elsewhere in the plane the mapping holds to a few hundredths of a mm (what
+    # is left is the estimated lens model's error): the 0.05 mm RMS target.
+    probe = np.array([[20.0, 10.0], [120.0, 45.0], [150.0, -10.0], [60.0, 50.0]])
+    x, y = plane.to_plane(*cam.project(probe).T)
+    err = np.hypot(x - probe[:, 0], y - probe[:, 1])
+    assert np.sqrt(np.mean(err**2)) < 0.05 and err.max() < 0.1
+
+
+def test_a_calibration_for_another_image_size_is_refused(setup, tmp_path):
+    from cranktrack.errors import CranktrackError
+
+    _, _, plane, _, _ = setup
+    small = render_scene(SpoolScenario(), tmp_path / "s",
+                         RenderSettings(size=(320, 240), seconds=0.3))
+    with pytest.raises(CranktrackError, match="made for 640x360"):
+        track_run(small.video, tmp_path / "r", calibration=plane)
+    assert (tmp_path / "r" / "tracks.csv").exists()  # the tracking done is kept
