@@ -182,8 +182,31 @@ def _print_warnings(warnings: Sequence[str]) -> None:
         print(f"warning: {w}", file=sys.stderr)
 
 
+def cmd_view(args: argparse.Namespace) -> int:
+    path = _record(Path(args.run), args.spawn)
+    print(f"wrote {path}; open it with `rerun {path}` (pip install rerun-sdk gives the viewer)")
+    return 0
+
+
+def _record(run: Path, spawn: bool, path: Path | None = None) -> Path:
+    from cranktrack.pipeline import record_run
+
+    try:
+        return record_run(run, spawn=spawn, path=path)
+    except (RuntimeError, OSError) as e:
+        if spawn:
+            raise CranktrackError(f"could not start the Rerun viewer here ({e}); drop --spawn "
+                                  "and open the .rrd file on a machine with a display") from None
+        raise
+
+
 def cmd_track(args: argparse.Namespace) -> int:
     run = _track(args, Path(args.video), Path(args.out))
+    if args.rerun:
+        spawn = args.rerun == "spawn"
+        target = None if spawn or args.rerun == "RUN/run.rrd" else Path(args.rerun)
+        rrd = _record(run.folder, spawn, target)
+        print(f"wrote {rrd}" + (" and opened the viewer" if spawn else ""))
     _print_warnings(run.warnings)
     found = ", ".join(f"{m} {100 * run.tracks[m + '_ok'].mean():.0f}%"
                       for m in [c[:-3] for c in run.tracks.columns if c.endswith("_ok")])
@@ -240,6 +263,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from cranktrack.pipeline import compare_run
 
     fitted, plots = compare_run(run.folder, {"L1": d.L1, "L2": d.L2, "speed_mm_s": d.speed_mm_s})
+    plots.append(_record(run.folder, spawn=False))
     print()
     print("Spool model fitted to the measured θ(t) (start time, stroke and L3_0 free): "
           + ", ".join(f"{k} = {v:.5g} ± {sd:.2g}" for k, (v, sd) in fitted.fit.fitted.items()))
@@ -406,6 +430,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--calibration", metavar="PLANE.json",
                    help="plane calibration from `cranktrack calibrate plane`; with it, "
                         "--known-length is only checked")
+    p.add_argument("--rerun", nargs="?", const="RUN/run.rrd", metavar="FILE|spawn",
+                   help="also write a Rerun recording (default RUN/run.rrd), or `spawn` a viewer")
     p.add_argument("--fill-gaps", type=int, default=0, metavar="N",
                    help="interpolate gaps of up to N frames, flagged as interpolated (0: off)")
     p.add_argument("--fps", dest="fps_images", type=_positive,
@@ -443,6 +469,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fit-speed", action="store_true",
                    help="fit the speed too (then L1 is held at its measured value)")
     p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("view", help="write a run's Rerun recording (RUN/run.rrd)")
+    p.add_argument("run", help="run folder written by `cranktrack track`")
+    p.add_argument("--spawn", action="store_true", help="also open the Rerun viewer")
+    p.set_defaults(func=cmd_view)
 
     p = sub.add_parser("demo", help="render the default spool scene, track it, compare with "
                                     "the model")

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from cranktrack.calibration.file import save_calibration
@@ -27,6 +28,7 @@ from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic, wr
 from cranktrack.kinematics.compare import Comparison, compare_spool
 from cranktrack.kinematics.measured import measure_kinematics
 from cranktrack.kinematics.plots import plot_comparison
+from cranktrack.report.summary import write_report
 from cranktrack.tracker.gaps import fill_gaps
 from cranktrack.tracker.markers import DEFAULT_MARKERS, MarkerSpec
 from cranktrack.tracker.track import track
@@ -151,6 +153,7 @@ def track_run(
         run_info["kinematics"] = info.to_dict()
         run_info["warnings"] = warnings
         files["run"] = write_json_atomic(folder / "run.json", run_info)
+    files["report"] = write_report(folder)
     return RunResult(folder, tracks, kinematics, cal, files, warnings)
 
 
@@ -191,4 +194,42 @@ def compare_run(run: Path, fixed: dict[str, float]) -> tuple[Comparison, list[Pa
                      f"{r.rms_pct_of_peak:.2f} | {r.fit_pct:.2f} | {r.frames} |")
     lines += [""] + [f"![{f.stem}]({f.name})" for f in figures] + [""]
     files.append(write_text_atomic(run / "compare.md", "\n".join(lines)))
+    files.append(write_report(run))
     return result, files + figures
+
+
+def record_run(run: Path, spawn: bool = False, path: Path | None = None) -> Path:
+    """Write the run's Rerun recording (default ``run/run.rrd``).
+
+    With a comparison in the folder, the fitted model's B is drawn over the
+    video, mapped back to pixels through the run's own calibration.
+    """
+    import json
+
+    from cranktrack.calibration.file import load_calibration
+    from cranktrack.kinematics.spool import SpoolDrive
+    from cranktrack.report.recording import write_recording
+
+    run = Path(run)
+    if not (run / "tracks.csv").is_file():
+        raise CranktrackError(f"{run} has no tracks.csv; is it a cranktrack run folder?")
+    tracks = pd.read_csv(run / "tracks.csv")
+    info = json.loads((run / "run.json").read_text()) if (run / "run.json").exists() else {}
+    video = info.get("source", {}).get("path")
+    if video and not Path(video).is_file():
+        video = None  # moved or deleted: the recording still has tracks and plots
+    kin = pd.read_csv(run / "kinematics.csv") if (run / "kinematics.csv").exists() else None
+    comparison = model_px = None
+    if (run / "compare.csv").exists() and (run / "compare.json").exists():
+        comparison = pd.read_csv(run / "compare.csv")
+        report = json.loads((run / "compare.json").read_text())
+        params = {k: v["value"] for k, v in {**report["fixed"], **report["fitted"]}.items()}
+        drive = SpoolDrive(**params)
+        t = tracks["t_s"].to_numpy(float)
+        theta = drive.bed.theta(drive.slider(t).L3)
+        side = np.sign(np.nanmedian(tracks["B_y_mm"])) if "B_y_mm" in tracks else 1.0
+        cal = load_calibration(run / "calibration.json")
+        model_px = np.stack(cal.to_image(drive.L2 * np.cos(theta),
+                                         side * drive.L2 * np.sin(theta)), axis=1)
+    return write_recording(path or run / "run.rrd", video, tracks, kin, comparison, model_px,
+                           spawn=spawn)

@@ -61,6 +61,22 @@ class PlaneCalibration:
         shape = np.shape(x_px)
         return xy[:, 0].reshape(shape), xy[:, 1].reshape(shape)
 
+    def to_image(self, x_mm: NDArray, y_mm: NDArray) -> tuple[NDArray, NDArray]:
+        """Plane points (mm) back to image pixels (the inverse of :meth:`to_plane`)."""
+        pts = np.stack([np.asarray(x_mm, float).ravel(), np.asarray(y_mm, float).ravel()], 1)
+        h = np.hstack([pts, np.ones((len(pts), 1))]) @ np.linalg.inv(self.homography).T
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ideal = h[:, :2] / h[:, 2:3]
+        if self.camera is not None:
+            ok = np.isfinite(ideal).all(axis=1)
+            K = self.camera.camera_matrix
+            norm = (ideal[ok] - K[:2, 2]) / np.array([K[0, 0], K[1, 1]])
+            obj = np.hstack([norm, np.ones((len(norm), 1))])
+            img, _ = cv2.projectPoints(obj, np.zeros(3), np.zeros(3), K, self.camera.distortion)
+            ideal[ok] = img.reshape(-1, 2)
+        shape = np.shape(x_mm)
+        return ideal[:, 0].reshape(shape), ideal[:, 1].reshape(shape)
+
     def mm_per_px(self, x_px: NDArray, y_px: NDArray) -> NDArray[np.float64]:
         """Local scale (mm per px, RMS over directions) at image points."""
         x, y = np.asarray(x_px, float), np.asarray(y_px, float)

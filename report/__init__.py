@@ -1,0 +1,1 @@
+"""What a person looks at: the Rerun recording and the run report."""

@@ -1,0 +1,113 @@
+"""``report.md``: the run at a glance, for a person who never opens Rerun."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+
+from cranktrack.files import write_text_atomic
+
+PANELS = (("theta_deg", "θ (deg)"), ("omega_rad_s", "ω (rad/s)"), ("vB_mm_s", "|v_B| (mm/s)"))
+
+
+def _json(path: Path) -> dict | None:
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError):
+        return None
+
+
+def plot_kinematics(kinematics: pd.DataFrame, comparison: pd.DataFrame | None,
+                    path: str | os.PathLike) -> Path:
+    """θ, ω and |v_B| over time with ±1σ bands, and the model if there is one."""
+    fig, axes = plt.subplots(len(PANELS), 1, figsize=(7.0, 7.2), sharex=True)
+    t = kinematics["t_s"]
+    for ax, (col, label) in zip(axes, PANELS, strict=True):
+        m, s = kinematics[col], kinematics[f"{col}_sigma"]
+        ax.fill_between(t, m - s, m + s, color="tab:blue", alpha=0.25, lw=0, label="±1σ")
+        ax.plot(t, m, ".", ms=3, color="tab:blue", label="measured")
+        if comparison is not None:
+            ax.plot(comparison["t_s"], comparison[f"{col}_model"], "-", color="tab:red",
+                    lw=1.2, label="model")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    axes[0].legend(loc="best", fontsize=8)
+    axes[-1].set_xlabel("t (s)")
+    fig.suptitle("Measured kinematics")
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def write_report(run: str | os.PathLike) -> Path:
+    """Write ``run/report.md`` (and ``kinematics.png``) from what the run folder holds."""
+    run = Path(run)
+    info = _json(run / "run.json") or {}
+    tracks = pd.read_csv(run / "tracks.csv")
+    kin = pd.read_csv(run / "kinematics.csv") if (run / "kinematics.csv").exists() else None
+    comparison = pd.read_csv(run / "compare.csv") if (run / "compare.csv").exists() else None
+    compare = _json(run / "compare.json")
+    src = info.get("source", {})
+    lines = [f"# Run report: {Path(src.get('path', '?')).name}", ""]
+    lines += [f"- source: `{src.get('path', '?')}` ({src.get('codec', '?')}, "
+              f"{src.get('width', '?')}×{src.get('height', '?')})",
+              f"- cranktrack {info.get('cranktrack', '?')}, {info.get('created', '')}", ""]
+    timing = info.get("tracking", {}).get("timing", {})
+    lines += ["## Tracking", "",
+              f"{len(tracks)} frames, median rate {timing.get('median_fps') or float('nan'):.3f} "
+              f"fps, variable rate: {timing.get('variable_rate')}, gaps in the timestamps: "
+              f"{timing.get('gaps')} (≈ {timing.get('dropped_frames_estimate')} dropped frames), "
+              f"duplicated timestamps: {timing.get('duplicated_timestamps')}.", "",
+              "| marker | found | median σ (px) | statuses |", "|---|---|---|---|"]
+    for m in [c[:-3] for c in tracks.columns if c.endswith("_ok")]:
+        statuses = (tracks[f"{m}_status"].value_counts().to_dict()
+                    if f"{m}_status" in tracks else {})
+        st = ", ".join(f"{k} {v}" for k, v in statuses.items())
+        sig = tracks[f"{m}_sigma_px"].to_numpy(float)
+        med = f"{np.median(sig[np.isfinite(sig)]):.4f}" if np.isfinite(sig).any() else "–"
+        lines.append(f"| {m} | {100 * tracks[f'{m}_ok'].mean():.1f} % | {med} | {st} |")
+    cal = info.get("calibration")
+    if cal:
+        lines += ["", "## Calibration", "", f"method: {cal.get('method')}", ""]
+        for k in ("length_std_mm", "length_relative_spread", "homography_rms_px",
+                  "homography_rms_mm", "check_residual_mm"):
+            if k in cal:
+                lines.append(f"- {k}: {cal[k]:.4g}")
+    links = info.get("kinematics", {}).get("links")
+    if links:
+        lines += ["", "## Rigid links", "", "| link | median (mm) | std (mm) | range (mm) | "
+                  "frames flagged |", "|---|---|---|---|---|"]
+        for k, v in links.items():
+            lines.append(f"| {k} | {v['median']:.3f} | {v['std']:.4f} | {v['range']:.4f} | "
+                         f"{v['frames_flagged']} |")
+    if kin is not None:
+        fig = plot_kinematics(kin, comparison, run / "kinematics.png")
+        k = info.get("kinematics", {})
+        lines += ["", "## Kinematics", "",
+                  f"Differentiator window {k.get('window_samples')} samples "
+                  f"({k.get('window_s', float('nan')):.3f} s), rate σ scale "
+                  f"{k.get('sigma_scale', float('nan')):.3f}.", "", f"![kinematics]({fig.name})"]
+    if compare:
+        lines += ["", "## Model (spool, fitted)", "", "| parameter | value | 1σ |",
+                  "|---|---|---|"]
+        for name, v in compare["fitted"].items():
+            lines.append(f"| {name} | {v['value']:.5g} {v['unit']} | {v['sigma']:.2g} |")
+        lines += ["", "| quantity | RMS error | max error | fit % |", "|---|---|---|---|"]
+        for e in compare["errors"]:
+            lines.append(f"| {e['quantity']} | {e['rms']:.4g} {e['unit']} | "
+                         f"{e['max_abs']:.4g} {e['unit']} | {e['fit_pct']:.2f} |")
+        figs = sorted(run.glob("fig_*.png"))
+        lines += [""] + [f"![{f.stem}]({f.name})" for f in figs]
+    if info.get("warnings"):
+        lines += ["", "## Warnings", ""] + [f"- {w}" for w in info["warnings"]]
+    return write_text_atomic(run / "report.md", "\n".join(lines) + "\n")

@@ -1,0 +1,58 @@
+"""The Rerun recording and the run report of a small render, read back."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from cranktrack.cli import main
+from cranktrack.report.recording import read_entities, read_times
+
+
+@pytest.fixture(scope="module")
+def run(small_h264, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("reported")
+    assert main(["track", str(small_h264.video), "--out", str(folder), "--known-length",
+                 "A-C=160.8", "--rerun"]) == 0
+    return folder
+
+
+def test_recording_has_video_markers_links_and_plots_on_one_timeline(run, small_h264):
+    entities = read_entities(run / "run.rrd")
+    tracks = pd.read_csv(run / "tracks.csv")
+    n = len(tracks)
+    assert entities["/video"]["static"]  # the asset, referenced once
+    assert entities["/video"]["rows"] == n  # one frame reference per frame
+    for m in "ABC":
+        assert entities[f"/video/markers/{m}"]["rows"] == tracks[f"{m}_ok"].sum() == n
+    for link in ("AB", "AC", "BC"):
+        assert entities[f"/video/links/{link}"]["rows"] == n
+    for key in ("theta", "omega", "vB"):
+        assert entities[f"/plots/{key}/measured"]["rows"] == n
+    # The markers sit on the video's own presentation times.
+    video_t = read_times(run / "run.rrd", "/video")
+    marker_t = read_times(run / "run.rrd", "/video/markers/B")
+    np.testing.assert_allclose(marker_t, video_t, atol=1e-6)
+    np.testing.assert_allclose(marker_t, tracks["t_s"], atol=1e-6)
+
+
+def test_recording_is_small_because_the_video_is_referenced(run, small_h264):
+    size = (run / "run.rrd").stat().st_size
+    assert size < small_h264.video.stat().st_size + 200_000
+
+
+def test_view_after_compare_overlays_the_model(run):
+    assert main(["compare", str(run), "--L1", "160.8", "--L2", "72.4"]) == 0
+    assert main(["view", str(run)]) == 0
+    entities = read_entities(run / "run.rrd")
+    assert entities["/video/model/B"]["rows"] == len(pd.read_csv(run / "tracks.csv"))
+    assert entities["/plots/residual/theta"]["rows"] > 0
+    report = (run / "report.md").read_text()
+    for section in ("## Tracking", "## Calibration", "## Rigid links", "## Kinematics",
+                    "## Model (spool, fitted)"):
+        assert section in report
+    assert (run / "kinematics.png").exists()
+
+
+def test_view_of_a_folder_that_is_not_a_run(tmp_path, capsys):
+    assert main(["view", str(tmp_path)]) == 1
+    assert "no tracks.csv" in capsys.readouterr().err
