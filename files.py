@@ -7,6 +7,7 @@ new one.
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import tempfile
@@ -36,7 +37,10 @@ def ensure_dir(path: str | os.PathLike) -> Path:
 def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
     """Write ``text`` to ``path`` via a temporary file and an atomic rename."""
     p = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".partial", dir=p.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".partial", dir=p.parent)
+    except OSError as e:
+        raise CranktrackError(f"cannot write {p}: {e.strerror}") from e
     try:
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
             f.write(text)
@@ -45,6 +49,11 @@ def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, p)
+    except OSError as e:
+        Path(tmp).unlink(missing_ok=True)
+        hint = "; the disk may be full" if e.errno == errno.ENOSPC else ""
+        raise CranktrackError(f"could not write {p}: {e.strerror}{hint}; files written "
+                              "before it are kept") from e
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise

@@ -29,7 +29,9 @@ class VideoWriter:
                  lossless: bool = False, crf: int = 20) -> None:
         self.path = Path(path)
         self._tmp = self.path.with_name(f".{self.path.stem}.partial{self.path.suffix}")
-        self._container = av.open(str(self._tmp), mode="w", format="mp4")
+        # The index (moov) first, as cameras that stream do: a cut file still plays.
+        self._container = av.open(str(self._tmp), mode="w", format="mp4",
+                                  options={"movflags": "faststart"})
         rate = Fraction(fps).limit_denominator(1001)
         if lossless:
             self._stream = self._container.add_stream("libx264rgb", rate=rate)

@@ -70,27 +70,47 @@ class FrameSource:
         yield from _prefetched(inner, prefetch)
 
     def _video_frames(self) -> Iterator[Frame]:
+        skipped: list[int] = []  # frame index after which a corrupt packet was dropped
+        index = 0
+        missing_pts = False
         with av.open(str(self.path)) as container:
             stream = container.streams.video[0]
             stream.thread_type = "AUTO"  # frame-threaded decoding; order is kept
-            index = 0
-            for packet in container.demux(stream):
+            packets = container.demux(stream)
+            while True:
+                try:
+                    packet = next(packets)
+                except StopIteration:
+                    break
+                except av.FFmpegError as e:
+                    self.problems.append(f"reading stopped after frame {index - 1}: the file "
+                                         f"is damaged from there on ({e.strerror})")
+                    break
                 try:
                     decoded = packet.decode()
-                except av.FFmpegError as e:
-                    self.problems.append(
-                        f"a corrupt packet after frame {index - 1} was skipped ({e})")
+                except av.FFmpegError:
+                    skipped.append(index - 1)
                     continue
                 for frame in decoded:
                     t = frame.time
                     if t is None:
+                        missing_pts = True
                         t = index / self.nominal_fps if self.nominal_fps else float(index)
-                        if "no timestamps" not in " ".join(self.problems):
-                            self.problems.append(
-                                "the container has no timestamps for some frames; "
-                                "those use index / nominal fps")
                     yield Frame(index, float(t), frame.to_ndarray(format="rgb24"))
                     index += 1
+        if skipped:
+            where = ", ".join(str(k) for k in sorted(set(skipped))[:10])
+            self.problems.append(f"{len(skipped)} corrupt packet(s) were skipped (after frame(s) "
+                                 f"{where}{', …' if len(set(skipped)) > 10 else ''}); the "
+                                 "frames they held are missing from the tracks")
+        if missing_pts:
+            self.problems.append("the container has no timestamps for some frames; those use "
+                                 "index / nominal fps")
+        if self.expected_frames and index < self.expected_frames and not skipped:
+            self.problems.append(
+                f"the video ends after frame {index - 1} although its index lists "
+                f"{self.expected_frames} frames: it is truncated or damaged; the tracks up to "
+                "there are kept")
 
     def _image_frames(self) -> Iterator[Frame]:
         fps = self.nominal_fps or 1.0
@@ -189,7 +209,9 @@ def open_frames(path: str | os.PathLike, fps: float | None = None) -> FrameSourc
             return FrameSource(p, "video", s.codec_context.width, s.codec_context.height, rate,
                                s.frames or None, s.codec_context.name)
     except av.FFmpegError as e:
-        raise CranktrackError(f"{p} is not a video FFmpeg can read ({e.strerror})") from e
+        raise CranktrackError(
+            f"{p} is not a video FFmpeg can read ({e.strerror}); if it is a recording that "
+            "was cut short, its index may be missing (MP4 writes it last)") from e
 
 
 def timing_report(t_s: NDArray[np.float64], nominal_fps: float | None = None) -> dict:

@@ -1,0 +1,98 @@
+"""Damaged and wrong input, built by the tests: one clear sentence, no traceback,
+work done kept."""
+
+import errno
+import subprocess
+import sys
+
+import pandas as pd
+import pytest
+
+import cranktrack.files as files
+from cranktrack.cli import main
+
+
+def _run(*args):
+    return subprocess.run([sys.executable, "-m", "cranktrack.cli", *args], capture_output=True,
+                          text=True, timeout=300)
+
+
+def test_truncated_video_keeps_the_tracks_up_to_the_damage(small_h264, tmp_path):
+    data = small_h264.video.read_bytes()
+    cut = tmp_path / "cut.mp4"
+    cut.write_bytes(data[: len(data) // 2])
+    p = _run("track", str(cut), "--out", str(tmp_path / "run"), "--known-length", "A-C=160.8")
+    assert p.returncode == 0 and "Traceback" not in p.stderr
+    assert "truncated or damaged" in p.stderr
+    tracks = pd.read_csv(tmp_path / "run" / "tracks.csv")
+    assert 10 < len(tracks) < 60  # what could be decoded, not invented
+
+
+def test_corrupt_packets_in_the_middle_are_skipped_and_listed(small_h264, tmp_path):
+    data = bytearray(small_h264.video.read_bytes())
+    start = len(data) // 3
+    for i in range(start, start + 2000):
+        data[i] = (i * 7919) % 256
+    bad = tmp_path / "bad.mp4"
+    bad.write_bytes(bytes(data))
+    p = _run("track", str(bad), "--out", str(tmp_path / "run"), "--known-length", "A-C=160.8")
+    assert "Traceback" not in p.stderr
+    tracks = pd.read_csv(tmp_path / "run" / "tracks.csv")
+    assert 30 < len(tracks) < 60  # the damaged frames are missing, the rest is tracked
+    assert "corrupt packet(s) were skipped" in p.stderr
+
+
+def test_index_missing_is_explained(tmp_path):
+    # An MP4 cut before its index: nothing can read it; say why it may be so.
+    f = tmp_path / "cut.mp4"
+    f.write_bytes(b"\x00\x00\x00\x20ftypisom" + bytes(5000))
+    p = _run("track", str(f), "--out", str(tmp_path / "run"))
+    assert p.returncode == 1 and "Traceback" not in p.stderr
+    assert "index may be missing" in p.stderr
+
+
+def test_output_path_that_is_a_file(small_h264, tmp_path):
+    blocker = tmp_path / "taken"
+    blocker.write_text("a file, not a folder")
+    p = _run("track", str(small_h264.video), "--out", str(blocker))
+    assert p.returncode == 1 and "exists and is not a folder" in p.stderr
+    assert "Traceback" not in p.stderr
+
+
+def test_disk_full_is_one_sentence_and_earlier_files_stay(small_h264, tmp_path, monkeypatch,
+                                                          capsys):
+    real = files.os.replace
+    calls = {"n": 0}
+
+    def replace(src, dst):
+        calls["n"] += 1
+        if calls["n"] > 2:  # tracks.csv and run.json get written, then the disk is full
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(src, dst)
+
+    monkeypatch.setattr(files.os, "replace", replace)
+    assert main(["track", str(small_h264.video), "--out", str(tmp_path / "run"),
+                 "--known-length", "A-C=160.8"]) == 1
+    err = capsys.readouterr().err
+    assert "disk may be full" in err and err.count("\n") == 1
+    assert (tmp_path / "run" / "tracks.csv").exists()
+    assert not list((tmp_path / "run").glob(".*partial"))
+
+
+@pytest.mark.parametrize("content", ["", "{", '{"schema": 2, "kind": "plane"}', "[1, 2]"])
+def test_bad_calibration_files(small_h264, tmp_path, content):
+    cal = tmp_path / "cal.json"
+    cal.write_text(content)
+    p = _run("track", str(small_h264.video), "--out", str(tmp_path / "run"), "--calibration",
+             str(cal))
+    assert p.returncode == 1 and "Traceback" not in p.stderr
+    assert "cal.json" in p.stderr
+
+
+def test_compare_on_nan_only_kinematics(tmp_path):
+    cols = ["frame", "t_s", "theta_deg", "theta_deg_sigma", "L3_mm"]
+    pd.DataFrame({c: [float("nan")] * 5 for c in cols}).to_csv(tmp_path / "kinematics.csv",
+                                                                index=False)
+    p = _run("compare", str(tmp_path))
+    assert p.returncode == 1 and "Traceback" not in p.stderr
+    assert "fewer than 5 frames" in p.stderr
