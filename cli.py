@@ -375,6 +375,37 @@ def cmd_calibrate_plane(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_sweep(args: argparse.Namespace) -> int:
+    import numpy as np
+    import pandas as pd
+
+    from cranktrack.files import ensure_dir, write_csv_atomic
+    from cranktrack.kinematics.maps import CONTRACTION, default_grid, rocking_angle_map
+    from cranktrack.kinematics.plots import plot_map
+
+    if args.metric != "rocking-angle" or args.actuator not in CONTRACTION:
+        raise CranktrackError(
+            f"the {args.metric} map for the {args.actuator} actuator needs the actuator's force "
+            "model, which is not implemented yet; available: rocking-angle with "
+            + " or ".join(CONTRACTION))
+    out = ensure_dir(args.out)
+    ratio, theta0 = default_grid(args.n)
+    m = rocking_angle_map(ratio, theta0, CONTRACTION[args.actuator])
+    R, T = np.meshgrid(m.ratio, m.theta0_deg)
+    table = pd.DataFrame({"L1_over_L2": R.ravel(), "theta0_deg": T.ravel(),
+                          "rocking_deg": m.rocking_deg.ravel(),
+                          "incompatibility": m.reason.ravel()})
+    csv = write_csv_atomic(out / f"rocking_angle_{args.actuator}.csv", table)
+    best = m.optimum()
+    png = plot_map(m.ratio, m.theta0_deg, m.rocking_deg, out / f"rocking_angle_{args.actuator}.png",
+                   f"Rocking angle, {args.actuator} actuator "
+                   f"({100 * m.contraction:.2f} % contraction)", "rocking angle (deg)", best)
+    print(f"max rocking angle {best[0]:.1f}° at L1/L2 = {best[1]:.2f}, θ0 = {best[2]:.1f}° "
+          f"(cf. thesis Table 2.6)")
+    print(f"wrote {csv} and {png}")
+    return 0
+
+
 def _add_board_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--board", default="9x6",
                    help="chessboard inner corners, or ChArUco squares, COLSxROWS (9x6)")
@@ -469,6 +500,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fit-speed", action="store_true",
                    help="fit the speed too (then L1 is held at its measured value)")
     p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("sweep", help="parametric maps over frame length and starting angle")
+    p.add_argument("metric", choices=["rocking-angle", "torque", "work"])
+    p.add_argument("--actuator", default="rigid", choices=["rigid", "linear", "sma", "muscle"])
+    p.add_argument("--n", type=int, default=200, help="grid points per axis (200)")
+    p.add_argument("--out", required=True, help="output folder")
+    p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("view", help="write a run's Rerun recording (RUN/run.rrd)")
     p.add_argument("run", help="run folder written by `cranktrack track`")

@@ -9,6 +9,7 @@ import matplotlib
 
 matplotlib.use("Agg")  # files only; never a window
 import matplotlib.pyplot as plt
+import numpy as np
 import pandas as pd
 
 #: (file name, title, panels: (column, y label)) — thesis figure numbers in the titles.
@@ -49,4 +50,53 @@ def plot_comparison(table: pd.DataFrame, folder: str | os.PathLike) -> list[Path
         fig.savefig(path, dpi=110)
         plt.close(fig)
         out.append(path)
+    return out
+
+
+def plot_map(x: np.ndarray, y: np.ndarray, z: np.ndarray, path: str | os.PathLike,
+             title: str, label: str, optimum: tuple[float, float, float] | None = None) -> Path:
+    """A filled contour map over (L1/L2, θ0), like thesis Figs. 2.6 and 2.41."""
+    fig, ax = plt.subplots(figsize=(6.4, 4.8))
+    levels = np.linspace(np.nanmin(z), np.nanmax(z), 15)
+    cs = ax.contourf(x, y, z, levels=levels, cmap="viridis")
+    fig.colorbar(cs, ax=ax, label=label)
+    if optimum is not None:
+        ax.plot(optimum[1], optimum[2], "r*", ms=12, label=f"max {optimum[0]:.1f}")
+        ax.legend(loc="lower right", fontsize=8)
+    ax.set_xlabel("frame length L1 / L2")
+    ax.set_ylabel("starting angle θ0 (deg)")
+    ax.set_title(title)
+    ax.text(0.02, 0.02, "white: the mechanism cannot close (Fig. 2.5)", transform=ax.transAxes,
+            fontsize=7)
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def plot_phase_portrait(dyn, path: str | os.PathLike, starts: list[tuple[float, float]],
+                        t_end: float = 30.0, title: str = "") -> Path:
+    """Phase portrait of eq. 3.28: vector field, trajectories from ``starts`` (θ, ω), equilibria."""
+    th = np.linspace(0.05, 2 * np.pi - 0.05, 31)
+    om = np.linspace(-1.5, 1.5, 25)
+    T, W = np.meshgrid(th, om)
+    fig, ax = plt.subplots(figsize=(6.4, 4.8))
+    ax.quiver(T, W, W, dyn.accel(T, W), color="tab:red", alpha=0.5, angles="xy")
+    t = np.linspace(0, t_end, 3000)
+    for th0, om0 in starts:
+        y, v = dyn.simulate(t, th0, om0)
+        ax.plot(y, v, "-", lw=1.0)
+        ax.plot(th0, om0, "ko", ms=3)
+    for e in dyn.equilibria():
+        ax.plot(e, 0, "kx", ms=8)
+    ax.set_xlim(0, 2 * np.pi)
+    ax.set_ylim(-1.5, 1.5)
+    ax.set_xlabel("θ (rad)")
+    ax.set_ylabel("ω (rad/s)")
+    ax.set_title(title or f"SR = {dyn.stiffness_ratio:.2f}")
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
     return out
