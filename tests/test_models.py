@@ -49,6 +49,7 @@ def test_undamped_motion_conserves_energy_and_damped_loses_it():
     e = d.energy(th, om)
     assert np.ptp(e) / e[0] < 1e-8
     dd = CrankDynamics(L1=2.0, k_d=0.5)
+    t = np.linspace(0, 60, 3001)
     th, om = dd.simulate(t, np.pi - 0.4, 0.3)
     e = dd.energy(th, om)
     assert np.all(np.diff(e) <= 1e-12)
