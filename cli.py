@@ -173,7 +173,7 @@ def _track(args: argparse.Namespace, video: Path, out: Path):
         return track_run(video, out, known, specs, fps=getattr(args, "fps_images", None),
                          window_s=args.window_s,
                          fill_gaps_frames=getattr(args, "fill_gaps", 0), calibration=plane,
-                         on_start=start,
+                         resume=getattr(args, "resume", False), on_start=start,
                          on_frame=lambda i: bar.update(1))
 
 
@@ -461,6 +461,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--calibration", metavar="PLANE.json",
                    help="plane calibration from `cranktrack calibrate plane`; with it, "
                         "--known-length is only checked")
+    p.add_argument("--resume", action="store_true",
+                   help="continue a run in --out that was interrupted (Ctrl-C)")
     p.add_argument("--rerun", nargs="?", const="RUN/run.rrd", metavar="FILE|spawn",
                    help="also write a Rerun recording (default RUN/run.rrd), or `spawn` a viewer")
     p.add_argument("--fill-gaps", type=int, default=0, metavar="N",
@@ -534,7 +536,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"cranktrack: error: {e}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
-        print("cranktrack: interrupted; files already written are kept", file=sys.stderr)
+        print("cranktrack: interrupted; files already written are kept (an interrupted "
+              "`track` continues with --resume)", file=sys.stderr)
         return 130
     except BrokenPipeError:  # output piped into e.g. `head`, which stopped reading
         sys.stderr.close()

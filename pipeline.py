@@ -7,6 +7,7 @@ the run keeps what was done before it.
 from __future__ import annotations
 
 import os
+import pickle
 import platform
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -31,10 +32,27 @@ from cranktrack.kinematics.plots import plot_comparison
 from cranktrack.report.summary import write_report
 from cranktrack.tracker.gaps import fill_gaps
 from cranktrack.tracker.markers import DEFAULT_MARKERS, MarkerSpec
-from cranktrack.tracker.track import track
+from cranktrack.tracker.track import TrackerState, TrackingInterrupted, track, tracks_table
 from cranktrack.tracker.video import open_frames
 
 RUN_SCHEMA = 1
+#: The tracker's state after an interruption, for `track --resume`.
+STATE_FILE = ".tracker_state.pkl"
+
+
+def _load_state(path: Path, video: str | os.PathLike) -> TrackerState:
+    if not path.exists():
+        raise CranktrackError(f"there is no interrupted run to resume in {path.parent} (no "
+                              f"{path.name}); run without --resume")
+    try:
+        saved = pickle.loads(path.read_bytes())
+        state = saved["state"]
+    except (OSError, pickle.UnpicklingError, KeyError, EOFError, AttributeError) as e:
+        raise CranktrackError(f"{path} cannot be read ({e}); run again without --resume") from None
+    if saved.get("video") != str(Path(video).resolve()):
+        raise CranktrackError(f"the run in {path.parent} was tracking {saved.get('video')}, "
+                              f"not {video}; resume it with that video")
+    return state
 
 
 @dataclass
@@ -67,6 +85,7 @@ def track_run(
     window_s: float | None = None,
     fill_gaps_frames: int = 0,
     calibration: PlaneCalibration | None = None,
+    resume: bool = False,
     on_start: Callable[[int | None], None] | None = None,
     on_frame: Callable[[int], None] | None = None,
 ) -> RunResult:
@@ -81,13 +100,30 @@ def track_run(
     differentiator's window (s); by default it is chosen from the data.
     ``fill_gaps_frames`` > 0 interpolates gaps up to that many frames long,
     flagged ``_status = "interpolated"`` (off by default: gaps stay gaps).
+    ``resume`` continues an interrupted run in ``out_dir`` (Ctrl-C leaves
+    ``tracks.csv`` up to the last finished frame and the tracker's state in
+    ``.tracker_state.pkl``; the resumed result equals an uninterrupted run).
     ``on_start(expected_frames)`` and ``on_frame(index)`` report progress.
     """
     source = open_frames(video, fps=fps)
     folder = ensure_dir(out_dir)
     if on_start:
         on_start(source.expected_frames)
-    result = track(source, specs, on_frame=on_frame)
+    state_path = folder / STATE_FILE
+    saved = _load_state(state_path, video) if resume else None
+
+    def checkpoint(state: TrackerState) -> None:
+        write_csv_atomic(folder / "tracks.csv", tracks_table(state.rows, specs))
+        write_text_atomic(state_path, pickle.dumps({"video": str(Path(video).resolve()),
+                                                    "state": state}))
+
+    try:
+        result = track(source, specs, on_frame=on_frame, resume=saved, checkpoint=checkpoint)
+    except TrackingInterrupted as e:
+        if e.state.rows:
+            checkpoint(e.state)
+        raise
+    state_path.unlink(missing_ok=True)
     tracks = result.tracks
     names = tuple(s.name for s in specs)
     if fill_gaps_frames > 0:

@@ -96,3 +96,29 @@ def test_compare_on_nan_only_kinematics(tmp_path):
     p = _run("compare", str(tmp_path))
     assert p.returncode == 1 and "Traceback" not in p.stderr
     assert "fewer than 5 frames" in p.stderr
+
+
+def test_ctrl_c_keeps_valid_tracks_and_resume_equals_an_uninterrupted_run(small_h264,
+                                                                         tmp_path):
+    from cranktrack.pipeline import track_run
+
+    full = track_run(small_h264.video, tmp_path / "full", ("A", "C", 160.8))
+
+    def interrupt(index):
+        if index == 20:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        track_run(small_h264.video, tmp_path / "cut", ("A", "C", 160.8), on_frame=interrupt)
+    partial = pd.read_csv(tmp_path / "cut" / "tracks.csv")
+    assert list(partial["frame"]) == list(range(21))  # up to the last finished frame
+    assert partial[["A_ok", "B_ok", "C_ok"]].all().all()
+    resumed = track_run(small_h264.video, tmp_path / "cut", ("A", "C", 160.8), resume=True)
+    pd.testing.assert_frame_equal(resumed.tracks, full.tracks)
+    pd.testing.assert_frame_equal(resumed.kinematics, full.kinematics)
+    assert not (tmp_path / "cut" / ".tracker_state.pkl").exists()
+
+
+def test_resume_without_an_interrupted_run(small_h264, tmp_path):
+    p = _run("track", str(small_h264.video), "--out", str(tmp_path), "--resume")
+    assert p.returncode == 1 and "no interrupted run to resume" in p.stderr

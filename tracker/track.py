@@ -213,10 +213,51 @@ class TrackResult:
                 "problems": self.problems, "learned_markers": self.learned}
 
 
+@dataclass
+class TrackerState:
+    """Everything the loop carries from frame to frame, so a run can resume.
+
+    ``rows`` are the finished rows; ``markers`` each marker's learned colour,
+    size, motion history and fit shape; ``balance`` the white balance.
+    """
+
+    markers: list[_MarkerState]
+    balance: dict
+    rows: list[list]
+
+    @property
+    def last_frame(self) -> int:
+        """Index of the last finished frame (−1 before the first)."""
+        return int(self.rows[-1][0]) if self.rows else -1
+
+
+class TrackingInterrupted(KeyboardInterrupt):
+    """Ctrl-C during tracking; carries the state up to the last finished frame."""
+
+    def __init__(self, state: TrackerState) -> None:
+        super().__init__("tracking interrupted")
+        self.state = state
+
+
+def tracks_table(rows: list[list], specs: tuple[MarkerSpec, ...]) -> pd.DataFrame:
+    """The tracks table from finished rows."""
+    cols = ["frame", "t_s"] + [
+        s.name + suffix for s in specs
+        for suffix in ("_x_px", "_y_px", "_sigma_px", "_ok", "_status")]
+    tracks = pd.DataFrame(rows, columns=cols)
+    tracks["frame"] = tracks["frame"].astype(int)
+    for s in specs:
+        tracks[s.name + "_ok"] = tracks[s.name + "_ok"].astype(bool)
+    return tracks
+
+
 def track(
     source: FrameSource,
     specs: tuple[MarkerSpec, ...] = DEFAULT_MARKERS,
     on_frame: Callable[[int], None] | None = None,
+    resume: TrackerState | None = None,
+    checkpoint: Callable[[TrackerState], None] | None = None,
+    checkpoint_every: int = 250,
 ) -> TrackResult:
     """Find every marker in every frame of ``source``.
 
@@ -226,6 +267,11 @@ def track(
     still a column (all NaN); ``found_fraction`` says so and the caller
     decides what to tell the user.
 
+    ``resume`` continues from a saved :class:`TrackerState` (frames up to its
+    last one are decoded but not tracked again); ``checkpoint(state)`` is
+    called every ``checkpoint_every`` frames. Ctrl-C raises
+    :class:`TrackingInterrupted` with the state so far.
+
     Raises
     ------
     CranktrackError
@@ -233,38 +279,37 @@ def track(
     """
     from cranktrack.errors import CranktrackError
 
-    states = [_MarkerState(spec) for spec in specs]
-    balance: dict = {"gains": None}  # white balance, measured at the first search
-    rows: list[list] = []
-    for frame in source.frames(prefetch=8):
-        row: list = [frame.index, frame.t_s]
-        hsv_cache: dict = balance.copy()
-        for st in states:
-            centre, status = _locate(frame.rgb, st, frame.t_s, hsv_cache)
-            balance["gains"] = hsv_cache.get("gains")
-            if centre is None:
-                row += [np.nan, np.nan, np.nan, False, status]
-            else:
-                st.history = [*st.history[-1:], (frame.t_s, centre.x, centre.y)]
-                row += [centre.x, centre.y, centre.sigma, True, status]
-            if centre is None:
-                st.history = []  # a lost marker is searched for afresh
-        rows.append(row)
-        if on_frame:
-            on_frame(frame.index)
-    if not rows:
+    state = resume or TrackerState([_MarkerState(spec) for spec in specs], {"gains": None}, [])
+    done = state.last_frame
+    try:
+        for frame in source.frames(prefetch=8):
+            if frame.index <= done:
+                continue
+            row: list = [frame.index, frame.t_s]
+            hsv_cache: dict = state.balance.copy()
+            for st in state.markers:
+                centre, status = _locate(frame.rgb, st, frame.t_s, hsv_cache)
+                state.balance["gains"] = hsv_cache.get("gains")
+                if centre is None:
+                    row += [np.nan, np.nan, np.nan, False, status]
+                    st.history = []  # a lost marker is searched for afresh
+                else:
+                    st.history = [*st.history[-1:], (frame.t_s, centre.x, centre.y)]
+                    row += [centre.x, centre.y, centre.sigma, True, status]
+            state.rows.append(row)
+            if on_frame:
+                on_frame(frame.index)
+            if checkpoint and len(state.rows) % checkpoint_every == 0:
+                checkpoint(state)
+    except KeyboardInterrupt as e:
+        raise TrackingInterrupted(state) from e
+    if not state.rows:
         raise CranktrackError(f"no frame of {source.path} could be decoded")
-    cols = ["frame", "t_s"] + [
-        s.name + suffix for s in specs
-        for suffix in ("_x_px", "_y_px", "_sigma_px", "_ok", "_status")]
-    tracks = pd.DataFrame(rows, columns=cols)
-    tracks["frame"] = tracks["frame"].astype(int)
-    for s in specs:
-        tracks[s.name + "_ok"] = tracks[s.name + "_ok"].astype(bool)
+    tracks = tracks_table(state.rows, specs)
     found = {s.name: float(tracks[s.name + "_ok"].mean()) for s in specs}
     learned = {st.spec.name: {"hue_deg": round(st.spec.hue_deg, 2),
                               "hue_tol_deg": round(st.spec.hue_tol_deg, 2),
                               "radius_px": None if st.radius is None else round(st.radius, 3)}
-               for st in states}
+               for st in state.markers}
     return TrackResult(tracks, timing_report(tracks["t_s"].to_numpy(), source.nominal_fps),
                        found, list(source.problems), learned)
