@@ -406,6 +406,24 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_batch(args: argparse.Namespace) -> int:
+    from cranktrack.batch import run_batch
+    from cranktrack.calibration.known_length import parse_known_length
+
+    known = parse_known_length(args.known_length) if args.known_length else None
+
+    def done(row: dict) -> None:
+        state = "ok" if row["status"] == "ok" else f"{row['status']}: {row['message']}"
+        print(f"{Path(row['video']).name}: {state}", flush=True)
+
+    summary = run_batch(args.pattern, args.out, known, args.compare, args.jobs, args.scheduler,
+                        on_done=done)
+    failed = int((summary["status"] != "ok").sum())
+    print(f"{len(summary) - failed} of {len(summary)} videos done; summary in "
+          f"{Path(args.out) / 'summary.csv'}")
+    return 0 if failed == 0 else 1
+
+
 def _add_board_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--board", default="9x6",
                    help="chessboard inner corners, or ChArUco squares, COLSxROWS (9x6)")
@@ -509,6 +527,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--n", type=int, default=200, help="grid points per axis (200)")
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser("batch", help="track many videos, one run folder each, and a summary")
+    p.add_argument("pattern", help="quoted glob of videos, e.g. 'recordings/*.mp4'")
+    p.add_argument("--out", required=True, help="folder for the run folders and summary.csv")
+    p.add_argument("--known-length", metavar="A-C=MM", help="scale for every video")
+    p.add_argument("--compare", action="store_true", help="also fit the spool model")
+    p.add_argument("--jobs", type=int, help="local worker processes (default: all cores)")
+    p.add_argument("--scheduler", help="Dask scheduler address to run on, e.g. tcp://host:8786")
+    p.set_defaults(func=cmd_batch)
 
     p = sub.add_parser("view", help="write a run's Rerun recording (RUN/run.rrd)")
     p.add_argument("run", help="run folder written by `cranktrack track`")

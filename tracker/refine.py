@@ -65,6 +65,9 @@ class Centre:
     gain: float = np.nan
     #: All fitted parameters (cx, cy, r, s, a, b), to warm-start the next frame.
     params: tuple[float, ...] | None = None
+    #: Σα over the fit window, px²: the visible marker area, whatever the fit's
+    #: radius/blur/gain trade-off (a partly covered marker shows less).
+    area: float = np.nan
 
 
 def weighted_centroid(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
@@ -176,7 +179,7 @@ def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
     ok = bool(np.all(np.isfinite(p)) and moved < radius and 0 < p[2] < 3 * radius)
     sigma = float(np.sqrt(0.5 * (cov[0, 0] + cov[1, 1])))
     return Centre(float(p[0]), float(p[1]), sigma, float(p[2]), ok, float(np.sqrt(s2)),
-                  float(p[4]), tuple(float(v) for v in p))
+                  float(p[4]), tuple(float(v) for v in p), float(A.sum()))
 
 
 def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, float],

@@ -47,6 +47,15 @@ STATUSES = {
 #: not a whole disc (partly covered, or something of its colour touching it).
 RESIDUAL_LIMIT = 1.6
 
+#: A marker whose visible area Σα differs from its usual by more than this
+#: fraction is not whole (partly covered), or not alone.
+AREA_TOLERANCE = 0.2
+
+#: Fitted coverage gain of a marker that is really there (≈ 1; an absent or
+#: hidden marker fits ≈ 0). Wide, because at a radius of a few pixels the gain
+#: trades off against the edge's blur.
+GAIN_RANGE = (0.5, 1.7)
+
 
 @dataclass
 class _MarkerState:
@@ -58,11 +67,13 @@ class _MarkerState:
     shape: tuple[float, ...] | None = None  # last fitted disc parameters
     marker: NDArray | None = None  # learned marker chroma
     residual: float | None = None  # usual RMS residual of the disc fit
+    area_alpha: float | None = None  # usual visible area Σα, px²
 
     def whole(self, centre: Centre) -> bool:
-        """Does the fit look like the whole marker: its usual size and residual?"""
-        if self.radius is not None and abs(centre.radius - self.radius) > 0.15 * self.radius:
-            return False
+        """Does the fit look like the whole marker: its usual visible area and residual?"""
+        if self.area_alpha is not None and np.isfinite(centre.area):
+            if not 1 - AREA_TOLERANCE <= centre.area / self.area_alpha <= 1 + AREA_TOLERANCE:
+                return False
         if self.residual is None or not np.isfinite(centre.rms_residual):
             return True
         return centre.rms_residual <= RESIDUAL_LIMIT * max(self.residual, 0.01)
@@ -72,6 +83,9 @@ class _MarkerState:
         if np.isfinite(centre.rms_residual):
             self.residual = (centre.rms_residual if self.residual is None
                              else 0.9 * self.residual + 0.1 * centre.rms_residual)
+        if np.isfinite(centre.area):
+            self.area_alpha = (centre.area if self.area_alpha is None
+                               else 0.9 * self.area_alpha + 0.1 * centre.area)
         self.shape = centre.params
         if seen is not None:
             self.marker = seen if self.marker is None else 0.9 * self.marker + 0.1 * seen
@@ -143,7 +157,8 @@ def refine(rgb: NDArray[np.uint8], guess: tuple[float, float], radius: float,
 
 def _plausible(c: Centre, guess: tuple[float, float], radius: float) -> bool:
     """A fit from a prediction that found the marker's colour, near the prediction."""
-    return c.ok and 0.6 < c.gain < 1.4 and np.hypot(c.x - guess[0], c.y - guess[1]) < radius
+    return c.ok and GAIN_RANGE[0] < c.gain < GAIN_RANGE[1] and np.hypot(
+        c.x - guess[0], c.y - guess[1]) < radius
 
 
 def _locate(rgb: NDArray[np.uint8], state: _MarkerState, t: float, hsv_cache: dict
@@ -187,7 +202,8 @@ def _locate(rgb: NDArray[np.uint8], state: _MarkerState, t: float, hsv_cache: di
         state.spec = learn_spec(state.spec, patch, (blob.x, blob.y), radius, x0, y0)
         state.learned = True
     centre, seen = refine(rgb, (blob.x, blob.y), radius, state.marker)
-    if not centre.ok or (state.marker is not None and not 0.6 < centre.gain < 1.4):
+    if not centre.ok or (state.marker is not None
+                         and not GAIN_RANGE[0] < centre.gain < GAIN_RANGE[1]):
         return None, "refine_failed"
     if not state.whole(centre):
         return None, "partly_covered"

@@ -1,0 +1,132 @@
+"""Many videos at once: one run folder per video and a summary table.
+
+Locally the videos are spread over processes (all cores by default); given
+the address of a Dask ``distributed`` scheduler they run on that cluster
+instead. One video failing is a row in the summary, not the end of the batch.
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+import pandas as pd
+
+from cranktrack.errors import CranktrackError
+from cranktrack.files import ensure_dir, write_csv_atomic
+
+
+def find_videos(pattern: str) -> list[Path]:
+    """Videos matching a glob pattern (``'recordings/*.mp4'``), sorted."""
+    paths = sorted(Path(p) for p in glob.glob(os.path.expanduser(pattern), recursive=True))
+    paths = [p for p in paths if p.is_file()]
+    if not paths:
+        raise CranktrackError(f"no files match {pattern!r}; quote the pattern so the shell "
+                              "passes it unexpanded, e.g. 'recordings/*.mp4'")
+    return paths
+
+
+def _folder_for(video: Path, out: Path, taken: set[str]) -> Path:
+    name = video.stem
+    k = 1
+    while name in taken:  # two videos of one name in different folders
+        k += 1
+        name = f"{video.stem}_{k}"
+    taken.add(name)
+    return out / name
+
+
+def process_one(video: str, folder: str, known_length: tuple[str, str, float] | None,
+                compare: bool) -> dict:
+    """Track (and optionally compare) one video; never raises for bad input.
+
+    Runs in a worker process or on a Dask worker, so it imports what it needs.
+    """
+    from cranktrack.pipeline import compare_run, track_run
+
+    row: dict = {"video": video, "run": folder, "status": "ok", "message": ""}
+    try:
+        run = track_run(video, folder, known_length)
+        t = run.tracks
+        row["frames"] = len(t)
+        for m in [c[:-3] for c in t.columns if c.endswith("_ok")]:
+            row[f"{m}_found_pct"] = round(100 * float(t[f"{m}_ok"].mean()), 2)
+        if run.kinematics is not None:
+            th = run.kinematics["theta_deg"]
+            row["theta_min_deg"], row["theta_max_deg"] = float(th.min()), float(th.max())
+            row["rocking_deg"] = float(th.max() - th.min())
+        if compare and run.kinematics is not None:
+            result, _ = compare_run(Path(folder), {"speed_mm_s": 14.0})
+            s = result.summary.set_index("quantity")
+            for q in ("theta_deg", "omega_rad_s", "vB_mm_s"):
+                row[f"{q}_rmse"] = float(s.loc[q, "rms"])
+                row[f"{q}_fit_pct"] = float(s.loc[q, "fit_pct"])
+        row["warnings"] = len(run.warnings)
+    except CranktrackError as e:
+        row["status"], row["message"] = "failed", str(e)
+    except Exception as e:  # a bug, but one video must not stop the batch
+        row["status"], row["message"] = "error", f"{type(e).__name__}: {e}"
+    return row
+
+
+def run_batch(
+    pattern: str,
+    out_dir: str | os.PathLike,
+    known_length: tuple[str, str, float] | None = None,
+    compare: bool = False,
+    jobs: int | None = None,
+    scheduler: str | object | None = None,
+    on_done: Callable[[dict], None] | None = None,
+) -> pd.DataFrame:
+    """Process every video matching ``pattern``; write and return ``summary.csv``.
+
+    ``scheduler`` is a Dask scheduler address (``tcp://host:8786``) or a
+    ``distributed.Client``; without it, ``jobs`` local processes (default:
+    all cores). ``on_done(row)`` is called as each video finishes.
+    """
+    videos = find_videos(pattern)
+    out = ensure_dir(out_dir)
+    taken: set[str] = set()
+    tasks = [(str(v), str(_folder_for(v, out, taken)), known_length, compare) for v in videos]
+    rows: list[dict] = []
+    if scheduler is not None:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise CranktrackError(
+                "--scheduler needs Dask: pip install 'cranktrack[dask]'") from None
+        client = scheduler if isinstance(scheduler, Client) else None
+        try:
+            client = client or Client(scheduler, timeout="10s")
+        except OSError as e:
+            raise CranktrackError(f"cannot reach the Dask scheduler at {scheduler} ({e})") from None
+        try:
+            futures = client.map(lambda a: process_one(*a), tasks, pure=False)
+            for fut in _as_completed_dask(futures):
+                rows.append(fut.result())
+                if on_done:
+                    on_done(rows[-1])
+        finally:
+            if client is not scheduler:
+                client.close()
+    else:
+        workers = jobs or os.cpu_count() or 1
+        with ProcessPoolExecutor(max_workers=min(workers, len(tasks))) as pool:
+            futures = [pool.submit(process_one, *a) for a in tasks]
+            for fut in as_completed(futures):
+                rows.append(fut.result())
+                if on_done:
+                    on_done(rows[-1])
+    summary = pd.DataFrame(rows).sort_values("video").reset_index(drop=True)
+    write_csv_atomic(out / "summary.csv", summary)
+    return summary
+
+
+def _as_completed_dask(futures):
+    from distributed import as_completed as dask_as_completed
+
+    return dask_as_completed(futures)
+

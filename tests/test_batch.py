@@ -1,0 +1,56 @@
+"""Batches of videos, locally and on a Dask LocalCluster started by the test."""
+
+import pandas as pd
+import pytest
+
+from cranktrack.batch import run_batch
+from cranktrack.synthetic.scenarios import SpoolScenario
+from cranktrack.synthetic.scene import RenderSettings, render_scene
+
+
+@pytest.fixture(scope="module")
+def recordings(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("recordings")
+    for seed in (1, 2, 3):
+        files = render_scene(SpoolScenario(), folder / f"s{seed}",
+                             RenderSettings(size=(320, 240), seconds=1.0, noise_dn=2.5,
+                                            seed=seed))
+        files.video.rename(folder / f"take{seed}.mp4")
+    (folder / "broken.mp4").write_text("not a video")
+    return folder
+
+
+def _check(summary, out):
+    assert len(summary) == 4
+    ok = summary[summary["status"] == "ok"]
+    assert len(ok) == 3 and (ok["frames"] == 30).all()
+    assert (ok["B_found_pct"] == 100).all()
+    bad = summary[summary["video"].str.endswith("broken.mp4")].iloc[0]
+    assert bad["status"] == "failed" and "not a video" in bad["message"]
+    assert (out / "summary.csv").exists()
+    for stem in ("take1", "take2", "take3"):
+        assert (out / stem / "kinematics.csv").exists()
+
+
+def test_local_batch_reports_the_failure_and_does_the_rest(recordings, tmp_path):
+    summary = run_batch(str(recordings / "*.mp4"), tmp_path, ("A", "C", 160.8), jobs=2)
+    _check(summary, tmp_path)
+
+
+def test_batch_on_a_local_dask_cluster(recordings, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        summary = run_batch(str(recordings / "*.mp4"), tmp_path, ("A", "C", 160.8),
+                            scheduler=client)
+    _check(summary, tmp_path)
+    # The summary is what a user opens: one row per video.
+    assert list(pd.read_csv(tmp_path / "summary.csv")["status"]).count("ok") == 3
+
+
+def test_no_match_is_one_clear_error(tmp_path):
+    from cranktrack.errors import CranktrackError
+
+    with pytest.raises(CranktrackError, match="no files match"):
+        run_batch(str(tmp_path / "*.mp4"), tmp_path / "out")
