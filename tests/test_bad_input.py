@@ -122,3 +122,28 @@ def test_ctrl_c_keeps_valid_tracks_and_resume_equals_an_uninterrupted_run(small_
 def test_resume_without_an_interrupted_run(small_h264, tmp_path):
     p = _run("track", str(small_h264.video), "--out", str(tmp_path), "--resume")
     assert p.returncode == 1 and "no interrupted run to resume" in p.stderr
+
+
+def test_two_blobs_of_one_colour_are_reported(tmp_path):
+    import numpy as np
+
+    from cranktrack.pipeline import track_run
+    from cranktrack.synthetic.render import Style, render_frame, to_uint8
+    from cranktrack.synthetic.scenarios import SpoolScenario
+    from cranktrack.synthetic.scene import scenario_camera
+    from cranktrack.synthetic.video import VideoWriter
+
+    scenario = SpoolScenario()
+    cam = scenario_camera(scenario, (320, 240))
+    style = Style(markers={**Style().markers, "D": Style().markers["B"]})  # a second red disc
+    motion = scenario.motion(np.arange(20) / 30)
+    with VideoWriter(tmp_path / "two.mp4", 320, 240, 30) as w:
+        for i in range(20):
+            pts = {k: cam.project(v[i]) for k, v in motion.points_mm.items()}
+            pts["D"] = np.array([40.0, 40.0])
+            w.write(to_uint8(render_frame(pts, (320, 240), cam.px_per_mm, style)), i / 30)
+    run = track_run(tmp_path / "two.mp4", tmp_path / "run")
+    notes = [p for p in run.warnings if "blobs of its colour and size" in p]
+    assert len(notes) == 1 and notes[0].startswith("marker B: 2 blobs")
+    p = _run("track", str(tmp_path / "two.mp4"), "--out", str(tmp_path / "run2"))
+    assert "2 blobs of its colour and size" in p.stderr and "Traceback" not in p.stderr

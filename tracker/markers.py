@@ -156,19 +156,32 @@ def balanced_hsv(rgb: NDArray[np.uint8], gains: NDArray[np.float32] | None) -> N
 
 
 def acquire(hsv: NDArray[np.uint8], spec: MarkerSpec, expected_area: float | None = None,
-            near: tuple[float, float] | None = None) -> tuple[Blob | None, str]:
+            near: tuple[float, float] | None = None
+            ) -> tuple[Blob | None, str, list[Blob]]:
     """Full-frame search for ``spec``'s marker, over a ladder of saturation floors.
 
     A marker touching a faintly tinted background can merge with it at the
     user's floor and fail the shape test; at a higher floor it stands alone.
-    All candidates from all floors compete in :func:`choose_blob`.
+    All candidates from all floors compete in :func:`choose_blob`. Also
+    returns the *rivals*: other blobs of the same colour, shape and size
+    (within 2× the chosen one's area) elsewhere in the frame, so the caller
+    can say that the choice was a guess.
     """
     blobs: list[Blob] = []
     for extra in (0.0, 0.15, 0.3):
         floor = min(spec.min_saturation + extra, 0.9)
         blobs += find_blobs(hsv, MarkerSpec(spec.name, spec.hue_deg, spec.hue_tol_deg, floor,
                                             spec.min_value, spec.min_area_px))
-    return choose_blob(blobs, expected_area, near)
+    blob, status = choose_blob(blobs, expected_area, near)
+    rivals: list[Blob] = []
+    if blob is not None:
+        for b in blobs:
+            far = np.hypot(b.x - blob.x, b.y - blob.y) > 3 * blob.radius
+            alike = b.disc_like() and 0.5 * blob.area <= b.area <= 2.0 * blob.area
+            seen = any(np.hypot(b.x - r.x, b.y - r.y) < 2 * blob.radius for r in rivals)
+            if far and alike and not seen:
+                rivals.append(b)
+    return blob, status, rivals
 
 
 def learn_spec(spec: MarkerSpec, rgb_patch: NDArray[np.uint8], centre: tuple[float, float],

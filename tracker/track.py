@@ -68,6 +68,7 @@ class _MarkerState:
     marker: NDArray | None = None  # learned marker chroma
     residual: float | None = None  # usual RMS residual of the disc fit
     area_alpha: float | None = None  # usual visible area Σα, px²
+    notes: list[str] = field(default_factory=list)  # things the user should hear about
 
     def whole(self, centre: Centre) -> bool:
         """Does the fit look like the whole marker: its usual visible area and residual?"""
@@ -190,9 +191,15 @@ def _locate(rgb: NDArray[np.uint8], state: _MarkerState, t: float, hsv_cache: di
             if hsv_cache.get("gains") is None:
                 hsv_cache["gains"] = white_balance_gains(rgb)
             hsv_cache["full"] = balanced_hsv(rgb, hsv_cache["gains"])
-        blob, full_status = acquire(hsv_cache["full"], state.spec, state.area, pred)
+        blob, full_status, rivals = acquire(hsv_cache["full"], state.spec, state.area, pred)
         if blob is None:
             return None, status if status == "out_of_view" else full_status
+        if rivals and pred is None and not state.notes:
+            where = "; ".join(f"({r.x:.0f}, {r.y:.0f})" for r in rivals[:3])
+            state.notes.append(
+                f"marker {state.spec.name}: {1 + len(rivals)} blobs of its colour and size at "
+                f"t = {t:.3f} s; following the one at ({blob.x:.0f}, {blob.y:.0f}), not "
+                f"{where}; if that is the wrong one, cover or recolour the others")
     radius = state.radius or blob.radius
     if not state.learned:
         patch, x0, y0 = _patch(rgb, blob.x, blob.y, radius + 3)
@@ -327,5 +334,6 @@ def track(
                               "hue_tol_deg": round(st.spec.hue_tol_deg, 2),
                               "radius_px": None if st.radius is None else round(st.radius, 3)}
                for st in state.markers}
+    notes = [n for st in state.markers for n in st.notes]
     return TrackResult(tracks, timing_report(tracks["t_s"].to_numpy(), source.nominal_fps),
-                       found, list(source.problems), learned)
+                       found, list(source.problems) + notes, learned)

@@ -1,0 +1,50 @@
+"""Property-based: whatever bytes or JSON a user hands over, no traceback."""
+
+import json
+import tempfile
+from pathlib import Path
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from cranktrack.calibration.file import load_calibration
+from cranktrack.cli import main
+from cranktrack.errors import CranktrackError
+
+MP4_HEAD = b"\x00\x00\x00\x20ftypisom\x00\x00\x02\x00isomiso2avc1mp41"
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(body=st.binary(max_size=4096), mp4_header=st.booleans())
+def test_random_bytes_as_a_video_never_crash(body, mp4_header):
+    with tempfile.TemporaryDirectory() as tmp:
+        video = Path(tmp) / "clip.mp4"
+        video.write_bytes((MP4_HEAD if mp4_header else b"") + body)
+        # 0: decoded something; 1: one clear sentence. Anything else raises here.
+        assert main(["track", str(video), "--out", str(Path(tmp) / "run"),
+                     "--known-length", "A-C=160.8"]) in (0, 1)
+
+
+json_values = st.recursive(
+    st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False) | st.text(max_size=8),
+    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner,
+                                                                 max_size=5),
+    max_leaves=20)
+calibration_like = st.fixed_dictionaries(
+    {"schema": st.sampled_from([1, 2, 3, "2", None])},
+    optional={"kind": st.sampled_from(["plane", "camera", "other"]),
+              "method": json_values, "image_size": json_values, "mm_per_px": json_values,
+              "origin_px": json_values, "x_axis_deg": json_values,
+              "homography_px_to_mm": json_values, "camera": json_values})
+
+
+@settings(max_examples=150, deadline=None)
+@given(data=st.one_of(json_values, calibration_like))
+def test_random_calibration_json_is_refused_cleanly(data):
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "cal.json"
+        path.write_text(json.dumps(data))
+        try:
+            load_calibration(path, (640, 480))
+        except CranktrackError:
+            pass
