@@ -95,8 +95,11 @@ def _render_settings(args: argparse.Namespace):
 
 def _spool_scenario(args: argparse.Namespace):
     from cranktrack.kinematics.spool import SpoolDrive
-    from cranktrack.synthetic.scenarios import SpoolScenario
+    from cranktrack.synthetic.scenarios import FreeScenario, SpoolScenario
 
+    if getattr(args, "scenario", "spool") == "free":
+        return FreeScenario(theta_init_deg=args.theta_init_deg,
+                            omega_init_rad_s=args.omega_init_rad_s)
     return SpoolScenario(SpoolDrive(start_s=args.start_s, stroke_mm=args.stroke_mm,
                                     speed_mm_s=args.speed_mm_s))
 
@@ -456,9 +459,14 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("synth", help="render a synthetic scene with its ground truth")
-    p.add_argument("scenario", choices=["spool", "board"],
-                   help="spool: the Table 2.2 test bed; board: calibration photos of the "
+    p.add_argument("scenario", choices=["spool", "free", "board"],
+                   help="spool: the Table 2.2 test bed; free: the damped free response of "
+                        "chapter 3 in the same geometry; board: calibration photos of the "
                         "same synthetic camera")
+    p.add_argument("--theta-init-deg", type=float, default=70.0,
+                   help="(free) release angle, degrees (70; the bias spring rests at 90)")
+    p.add_argument("--omega-init-rad-s", type=float, default=0.0,
+                   help="(free) release angular velocity, rad/s (0)")
     p.add_argument("--out", required=True, help="output folder")
     _add_render_options(p, seconds=5.0)
     _add_scene_options(p)

@@ -9,11 +9,13 @@ a :class:`Motion`.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cranktrack.kinematics.crank_slider import crank_state
+from cranktrack.kinematics.crank_slider import crank_state, l3_from_theta
+from cranktrack.kinematics.dynamics import CrankDynamics
 from cranktrack.kinematics.spool import SpoolDrive
 
 
@@ -73,3 +75,61 @@ class SpoolScenario:
         """Parameters for ``scene.json``."""
         return {"name": self.name, **asdict(self.drive), "stop_s": self.drive.stop_s,
                 "theta0_deg": float(np.degrees(self.drive.bed.theta(self.drive.L3_0)))}
+
+
+class Scenario(Protocol):
+    """What the renderer needs from a scenario."""
+
+    name: str
+
+    def motion(self, t_s: ArrayLike) -> Motion: ...
+
+    def extent_mm(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
+
+    def to_dict(self) -> dict: ...
+
+
+@dataclass(frozen=True)
+class FreeScenario:
+    """The free response of thesis chapter 3 (eq. 3.28), in the rigid bed's geometry.
+
+    The crank is released at ``theta_init_deg`` with ``omega_init_rad_s`` and
+    moves under the bias spring, the stretched wire and damping. Lengths are
+    the rigid bed's (mm); the constants are chosen so one oscillation takes
+    about two seconds: ``I`` = 0.05, ``k_l`` = 1, ``k_d`` = 0.5 and ``k_s`` for a
+    stiffness ratio of 0.5 (a centre at θ0). Any of them can be changed.
+    """
+
+    dynamics: CrankDynamics = field(default_factory=lambda: CrankDynamics(
+        I=0.05, k_l=1.0, k_s=0.5 / (160.8 * 72.4 * 0.05), k_d=0.5, L1=160.8, L2=72.4,
+        theta0=np.radians(90.0)))
+    theta_init_deg: float = 70.0
+    omega_init_rad_s: float = 0.0
+    name: str = "free"
+
+    def motion(self, t_s: ArrayLike) -> Motion:
+        """Exact (to the integrator's 1e-10) motion at times ``t_s`` (s, from 0)."""
+        t = np.asarray(t_s, dtype=float)
+        d = self.dynamics
+        # One dense integration to the next whole 10 s covers every frame asked for.
+        t_end = 10.0 * np.ceil(max(float(t.max()), 1e-9) / 10.0)
+        theta, omega = d.solution(t_end, np.radians(self.theta_init_deg),
+                                  self.omega_init_rad_s)(t)
+        alpha = d.accel(theta, omega)
+        B = d.L2 * np.stack([np.cos(theta), np.sin(theta)], axis=1)
+        vB = omega[:, None] * np.stack([-B[:, 1], B[:, 0]], axis=1)
+        L3 = l3_from_theta(theta, d.L1, d.L2)
+        return Motion(t_s=t, points_mm={"A": np.zeros_like(B), "B": B,
+                                        "C": np.tile([d.L1, 0.0], (len(t), 1))},
+                      theta=theta, omega=omega, alpha=alpha, vB_mm_s=vB, L3_mm=L3,
+                      L3_rate_mm_s=d.L1 * d.L2 * np.sin(theta) * omega / L3)
+
+    def extent_mm(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The crank's whole circle and the frame: wherever the motion goes."""
+        d = self.dynamics
+        return np.array([-d.L2, -d.L2]), np.array([d.L1, d.L2])
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, **asdict(self.dynamics),
+                "L3_0": self.dynamics.L3_0, "stiffness_ratio": self.dynamics.stiffness_ratio,
+                "theta_init_deg": self.theta_init_deg, "omega_init_rad_s": self.omega_init_rad_s}

@@ -12,7 +12,7 @@ import numpy as np
 from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic
 from cranktrack.synthetic.camera import Camera, PinholeCamera
 from cranktrack.synthetic.render import Style, draw_capsule, render_frame, to_uint8
-from cranktrack.synthetic.scenarios import SpoolScenario
+from cranktrack.synthetic.scenarios import Scenario
 from cranktrack.synthetic.truth import truth_table
 from cranktrack.synthetic.video import VideoWriter
 
@@ -62,7 +62,7 @@ class SceneFiles:
     scene: Path
 
 
-def scenario_camera(scenario: SpoolScenario, size: tuple[int, int], tilt_deg: float = 0.0,
+def scenario_camera(scenario: Scenario, size: tuple[int, int], tilt_deg: float = 0.0,
                     k1: float = 0.0, k2: float = 0.0, pinhole: bool = False
                     ) -> Camera | PinholeCamera:
     """The default framing: the whole motion centred, filling 80 % of the image.
@@ -78,7 +78,7 @@ def scenario_camera(scenario: SpoolScenario, size: tuple[int, int], tilt_deg: fl
                                  k1=k1, k2=k2)
 
 
-def _expose(scenario: SpoolScenario, camera: Camera | PinholeCamera, settings: RenderSettings,
+def _expose(scenario: Scenario, camera: Camera | PinholeCamera, settings: RenderSettings,
             style: Style, t: float, cover: tuple[str, ...] = ()) -> np.ndarray:
     """One frame: drawn in the ideal image (the mean of renders across the
     exposure, for motion blur), covers added, then bent through the lens."""
@@ -121,7 +121,7 @@ def _light(settings: RenderSettings, t: float) -> np.ndarray:
 
 
 def render_scene(
-    scenario: SpoolScenario,
+    scenario: Scenario,
     out_dir: str | os.PathLike,
     settings: RenderSettings = RenderSettings(),
     style: Style | None = None,
