@@ -193,11 +193,11 @@ def fit_spool(measured: pd.DataFrame, fixed: dict[str, float] | None = None) -> 
         sd = np.sqrt(np.clip(np.diag(cov), 0, None))
     except np.linalg.LinAlgError:
         sd = np.full(len(free), np.nan)
-    drive = drive_of(best.x)
-    model = drive.bed.theta(drive.slider(t).L3)
     if np.all(np.abs(r) >= 1e3 - 1):
         raise CranktrackError("no spool model with these fixed values can reproduce the "
                               "measured angles (the linkage would not close)")
+    drive = drive_of(best.x)
+    model = drive.bed.theta(drive.slider(t).L3)
     fitted = {k: (float(v), float(e)) for k, v, e in zip(free, best.x, sd, strict=True)}
     rms = float(np.degrees(np.sqrt(np.mean((theta - model) ** 2))))
     return SpoolFit(drive, fitted, fixed, rms, tried, messages)

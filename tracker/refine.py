@@ -5,8 +5,9 @@ All methods work on a small patch around a coarse detection and on the
 plane orthogonal to (1, 1, 1). Grey and near-neutral things (links, wire,
 board, shadows that only darken) have almost no chroma, so a pixel that is a
 mix ``α·marker + (1 − α)·grey`` has chroma ``α·marker_chroma`` whatever the
-grey is. Projecting the chroma on the marker's (minus the local background's)
-gives the coverage ``α`` of each pixel, linear in the data.
+grey is. Projecting each pixel's chroma, minus the background's (sampled on a
+ring just outside the marker, :func:`local_coverage`), on the marker's gives
+the coverage ``α`` of each pixel, linear in the data.
 
 Two estimators use that coverage image:
 
@@ -24,6 +25,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
 from scipy.special import erf
@@ -37,18 +39,6 @@ CHROMA_BASIS = np.array(
 def chroma(rgb: NDArray) -> NDArray[np.float32]:
     """Chroma of RGB pixels, shape (..., 2), in DN."""
     return np.asarray(rgb, dtype=np.float32) @ CHROMA_BASIS.T
-
-
-def coverage(patch_rgb: NDArray, marker_chroma: NDArray, background_chroma: NDArray
-             ) -> NDArray[np.float32]:
-    """Per-pixel marker coverage α from linear unmixing in the chroma plane.
-
-    Not clipped: noise makes α a little negative or above 1, and clipping
-    would bias the estimators below.
-    """
-    d = np.asarray(marker_chroma, np.float32) - np.asarray(background_chroma, np.float32)
-    q = chroma(patch_rgb) - np.asarray(background_chroma, np.float32)
-    return (q @ d) / np.float32(d @ d)
 
 
 @dataclass(frozen=True)
@@ -201,8 +191,6 @@ def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float
     Returns ``(alpha, marker_chroma_seen)``: the second is the median chroma
     of the middle of the patch, for following slow colour drift.
     """
-    import cv2
-
     P = np.ascontiguousarray(chroma(patch_rgb))
     h, w = P.shape[:2]
     dx = (np.arange(w, dtype=np.float32) + np.float32(x0 - centre[0]))[None, :]
