@@ -105,13 +105,24 @@ def _spool_scenario(args: argparse.Namespace):
 
 
 def _render(args: argparse.Namespace, out: Path):
+    from dataclasses import replace
+
+    from cranktrack.synthetic.effects import EFFECTS, parse_effects
     from cranktrack.synthetic.scene import render_scene
 
+    effects = parse_effects(getattr(args, "effect", None))
+    for name in ("k1", "k2", "tilt_deg"):  # camera effects are the camera's options
+        if name in effects:
+            setattr(args, name, effects[name])
     settings = _render_settings(args)
+    if "exposure_s" in effects:
+        settings = replace(settings, exposure_s=effects["exposure_s"])
     scenario = _spool_scenario(args)
+    motion_effects = {k: v for k, v in effects.items() if EFFECTS[k].kind != "camera"}
     with _progress("render", settings.n_frames) as bar:
         return render_scene(scenario, out, settings, camera=_camera(args, scenario),
-                            on_frame=lambda i, n: bar.update(1))
+                            on_frame=lambda i, n: bar.update(1), effects=motion_effects,
+                            declare_effects=getattr(args, "declare_effects", False))
 
 
 def _camera(args: argparse.Namespace, scenario, pinhole: bool = False):
@@ -463,6 +474,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="spool: the Table 2.2 test bed; free: the damped free response of "
                         "chapter 3 in the same geometry; board: calibration photos of the "
                         "same synthetic camera")
+    p.add_argument("--effect", action="append", metavar="NAME=VALUE",
+                   help="switch on an effect the models lack (repeatable): slack_mm, "
+                        "spool_growth_per_s, return_spring_hz, return_spring_zeta, "
+                        "dropped_frames, fps_label, k1, k2, tilt_deg, exposure_s")
+    p.add_argument("--declare-effects", action="store_true",
+                   help="list the effects in scene.json (off: data with an undeclared effect)")
     p.add_argument("--theta-init-deg", type=float, default=70.0,
                    help="(free) release angle, degrees (70; the bias spring rests at 90)")
     p.add_argument("--omega-init-rad-s", type=float, default=0.0,

@@ -9,10 +9,12 @@ from pathlib import Path
 
 import numpy as np
 
+from cranktrack.errors import CranktrackError
 from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic
 from cranktrack.synthetic.camera import Camera, PinholeCamera
+from cranktrack.synthetic.effects import EFFECTS, EffectedSpool, recording_times
 from cranktrack.synthetic.render import Style, draw_capsule, render_frame, to_uint8
-from cranktrack.synthetic.scenarios import Scenario
+from cranktrack.synthetic.scenarios import Scenario, SpoolScenario
 from cranktrack.synthetic.truth import truth_table
 from cranktrack.synthetic.video import VideoWriter
 
@@ -129,6 +131,8 @@ def render_scene(
     on_frame: Callable[[int, int], None] | None = None,
     hidden: dict[str, Iterable[int]] | None = None,
     covered: dict[str, Iterable[int]] | None = None,
+    effects: dict[str, float] | None = None,
+    declare_effects: bool = False,
 ) -> SceneFiles:
     """Render ``scenario`` and write the video, its truth and its description.
 
@@ -136,13 +140,23 @@ def render_scene(
     (covered, or absent); its truth there keeps the position but has
     ``_ok = False``. ``covered`` maps a marker name to frames in which a grey
     strip hides about a third of it (the truth stays ``_ok``).
+    ``effects`` switches on physical and recording effects of
+    :mod:`.effects` (camera effects are the ``camera`` and ``settings``
+    themselves); ``scene.json`` lists them only with ``declare_effects``.
     ``on_frame(i, n)`` is called after each frame (for a progress bar).
     """
     style = style or Style()
     folder = ensure_dir(out_dir)
     camera = camera or scenario_camera(scenario, settings.size)
-    n = settings.n_frames
-    t = np.arange(n) / settings.fps
+    effects = dict(effects or {})
+    physical = {k: v for k, v in effects.items() if EFFECTS[k].kind == "physical"}
+    if physical:
+        if not isinstance(scenario, SpoolScenario):
+            raise CranktrackError(f"the effects {sorted(physical)} apply to the spool scenario")
+        scenario = EffectedSpool(scenario, physical)
+    keep, stamps = recording_times(settings.n_frames, settings.fps, effects, settings.seed)
+    n = len(keep)
+    t = keep / settings.fps  # when each written frame was really taken
     motion = scenario.motion(t)
     truth = truth_table(motion, camera)
     hide = {k: set(v) for k, v in (hidden or {}).items()}
@@ -160,7 +174,7 @@ def render_scene(
             img = _expose(scenario, camera, settings, shown, float(t[i]), covering)
             if settings.light_gradient:
                 img *= _light(settings, float(t[i]))
-            writer.write(to_uint8(img, settings.noise_dn, rng), float(t[i]))
+            writer.write(to_uint8(img, settings.noise_dn, rng), float(stamps[i]))
             if on_frame:
                 on_frame(i + 1, n)
     truth_path = write_csv_atomic(folder / "truth.csv", truth)
@@ -187,7 +201,7 @@ def render_scene(
         },
         "hidden": {k: sorted(v) for k, v in hide.items()},
         "covered": {k: sorted(v) for k, v in cover.items()},
-        "effects": [],
+        "effects": effects if declare_effects else ("not declared" if effects else {}),
     }
     scene_path = write_json_atomic(folder / "scene.json", scene)
     return SceneFiles(folder, video, truth_path, scene_path)

@@ -1,0 +1,188 @@
+"""Effects real rigs have and the analytic models lack, each switchable on a render.
+
+Every effect has a name, one parameter with a unit, and one sentence saying
+how it shows in the measured kinematics (:data:`EFFECTS`). All are off by
+default. ``scene.json`` lists them only when asked (``--declare-effects``),
+so a test can make data whose effect the fitting code is not told about.
+
+Physical effects change the motion (:class:`EffectedSpool`); recording
+effects change which frames are written and the times the container claims
+(:func:`recording_times`); camera effects are the render options of the
+same names (lens, tilt, exposure).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cranktrack.errors import CranktrackError
+from cranktrack.kinematics.crank_slider import crank_state, l3_from_theta
+from cranktrack.kinematics.spool import SpoolDrive
+from cranktrack.synthetic.scenarios import Motion, SpoolScenario
+
+
+@dataclass(frozen=True)
+class EffectInfo:
+    """An effect's kind, its parameter's unit, and how it shows in the data."""
+
+    kind: str  # "physical", "recording" or "camera"
+    unit: str
+    shows_as: str
+
+
+EFFECTS: dict[str, EffectInfo] = {
+    "slack_mm": EffectInfo(
+        "physical", "mm",
+        "the crank starts moving slack/speed later than the drive and rocks through a "
+        "smaller angle (the first slack of wire is wound in without pulling)"),
+    "spool_growth_per_s": EffectInfo(
+        "physical", "1/s",
+        "the wire's speed grows by this fraction per second as it layers onto the spool, so ω "
+        "rises faster than the constant-speed model and the stroke ends sooner"),
+    "return_spring_hz": EffectInfo(
+        "physical", "Hz",
+        "when the spool stops the crank does not stop dead: it overshoots and rings about its "
+        "final angle at this frequency (inertia against the torsion spring, thesis Fig. 2.36)"),
+    "return_spring_zeta": EffectInfo(
+        "physical", "1",
+        "damping ratio of that ringing (default 0.1 when return_spring_hz is set)"),
+    "dropped_frames": EffectInfo(
+        "recording", "fraction",
+        "this fraction of frames is missing: gaps in the timestamps, never interpolated"),
+    "fps_label": EffectInfo(
+        "recording", "fps",
+        "the container claims this frame rate while the camera ran at --fps, so every measured "
+        "rate is scaled by label/true and every duration by true/label"),
+    "k1": EffectInfo("camera", "1", "barrel (k1 < 0) or pincushion lens distortion bends the "
+                     "frame link and makes 'rigid' lengths vary across the image"),
+    "k2": EffectInfo("camera", "1", "higher-order radial distortion, as k1"),
+    "tilt_deg": EffectInfo("camera", "deg", "a camera tilted off the plane normal: a scale "
+                           "that varies across the image, so angles from a single scale are "
+                           "biased"),
+    "exposure_s": EffectInfo("camera", "s", "motion blur: moving markers smear along their "
+                             "path over the exposure"),
+}
+
+
+def parse_effects(items: list[str] | None) -> dict[str, float]:
+    """``["slack_mm=2", "k1=-0.1"]`` → ``{"slack_mm": 2.0, "k1": -0.1}``."""
+    out: dict[str, float] = {}
+    for item in items or []:
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or name not in EFFECTS:
+            known = ", ".join(EFFECTS)
+            raise CranktrackError(f"--effect {item!r} is not NAME=VALUE with a known effect "
+                                  f"({known})")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise CranktrackError(f"--effect {item!r}: {value!r} is not a number") from None
+    if "return_spring_zeta" in out and "return_spring_hz" not in out:
+        raise CranktrackError("return_spring_zeta needs return_spring_hz")
+    return out
+
+
+def _wound(drive: SpoolDrive, growth: float, tau: NDArray) -> NDArray:
+    """Wire wound in τ seconds after the start at a speed growing by ``growth``/s, mm."""
+    return drive.speed_mm_s * (tau + 0.5 * growth * tau**2)
+
+
+@dataclass(frozen=True)
+class EffectedSpool:
+    """The spool scenario with physical effects switched on.
+
+    The drive still winds ``stroke_mm`` of wire from ``start_s``; slack
+    makes the first ``slack_mm`` of it pull nothing, growth makes the speed
+    ramp, and the return spring makes the crank ring after the drive stops.
+    """
+
+    base: SpoolScenario = field(default_factory=SpoolScenario)
+    effects: dict[str, float] = field(default_factory=dict)
+    name: str = "spool"
+
+    def _stop_tau(self) -> float:
+        d, g = self.base.drive, self.effects.get("spool_growth_per_s", 0.0)
+        if g == 0:
+            return d.stroke_mm / d.speed_mm_s
+        return float((-1.0 + np.sqrt(1.0 + 2.0 * g * d.stroke_mm / d.speed_mm_s)) / g)
+
+    def motion(self, t_s: ArrayLike) -> Motion:
+        t = np.asarray(t_s, dtype=float)
+        d = self.base.drive
+        g = self.effects.get("spool_growth_per_s", 0.0)
+        slack = self.effects.get("slack_mm", 0.0)
+        if not 0 <= slack < d.stroke_mm:
+            raise CranktrackError(f"slack_mm must be at least 0 and below the stroke "
+                                  f"({d.stroke_mm} mm)")
+        tau_stop = self._stop_tau()
+        tau = np.clip(t - d.start_s, 0.0, tau_stop)
+        pulled = np.maximum(_wound(d, g, tau) - slack, 0.0)
+        L3 = d.L3_0 - pulled
+        moving = (t > d.start_s) & (t < d.start_s + tau_stop) & (_wound(d, g, tau) > slack)
+        rate = np.where(moving, -d.speed_mm_s * (1.0 + g * tau), 0.0)
+        accel = np.where(moving, -d.speed_mm_s * g, 0.0)
+        from cranktrack.kinematics.crank_slider import SliderState
+
+        state = crank_state(d.bed, SliderState(L3, rate, accel))
+        theta, omega, alpha = state.theta.copy(), state.omega.copy(), state.alpha.copy()
+        f = self.effects.get("return_spring_hz", 0.0)
+        if f > 0:
+            # After the stop: velocity continuous, then a damped ring about θ_f.
+            zeta = self.effects.get("return_spring_zeta", 0.1)
+            t_stop = d.start_s + tau_stop
+            end = crank_state(d.bed, SliderState(
+                np.array([d.L3_0 - (_wound(d, g, np.array([tau_stop]))[0] - slack)]),
+                np.array([-d.speed_mm_s * (1 + g * tau_stop)]), np.array([-d.speed_mm_s * g])))
+            th_f, w0 = float(end.theta[0]), float(end.omega[0])
+            wn = 2 * np.pi * f
+            wd = wn * np.sqrt(max(1.0 - zeta**2, 1e-12))
+            after = t > t_stop
+            s = t[after] - t_stop
+            env = np.exp(-zeta * wn * s)
+            A = w0 / wd
+            theta[after] = th_f + A * env * np.sin(wd * s)
+            omega[after] = A * env * (wd * np.cos(wd * s) - zeta * wn * np.sin(wd * s))
+            alpha[after] = A * env * ((zeta * wn) ** 2 * np.sin(wd * s) - wd**2 * np.sin(wd * s)
+                                      - 2 * zeta * wn * wd * np.cos(wd * s))
+        B = d.L2 * np.stack([np.cos(theta), np.sin(theta)], axis=1)
+        vB = omega[:, None] * np.stack([-B[:, 1], B[:, 0]], axis=1)
+        L3_geo = l3_from_theta(theta, d.L1, d.L2)
+        L3_rate = d.L1 * d.L2 * np.sin(theta) * omega / L3_geo
+        return Motion(t_s=t, points_mm={"A": np.zeros_like(B), "B": B,
+                                        "C": np.tile([d.L1, 0.0], (len(t), 1))},
+                      theta=theta, omega=omega, alpha=alpha, vB_mm_s=vB, L3_mm=L3_geo,
+                      L3_rate_mm_s=L3_rate)
+
+    def extent_mm(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        lo, hi = self.base.extent_mm()
+        if self.effects.get("return_spring_hz", 0) > 0:  # the ring may overshoot
+            lo = np.minimum(lo, [0.0, -0.2 * self.base.drive.L2])
+        return lo, hi
+
+    def to_dict(self) -> dict:
+        return self.base.to_dict()
+
+
+def recording_times(n: int, fps: float, effects: dict[str, float], seed: int = 0
+                    ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """Which frames are written and the time the container gives each (s).
+
+    Returns (indices of the frames kept, their container timestamps).
+    """
+    keep = np.arange(n)
+    drop = effects.get("dropped_frames", 0.0)
+    if drop > 0:
+        if not 0 < drop < 1:
+            raise CranktrackError("dropped_frames is a fraction between 0 and 1")
+        rng = np.random.default_rng(seed + 7919)
+        lost = rng.random(n) < drop
+        lost[0] = False
+        keep = keep[~lost]
+    label = effects.get("fps_label", fps)
+    if not label > 0:
+        raise CranktrackError("fps_label must be positive")
+    return keep, keep / label

