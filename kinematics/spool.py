@@ -12,10 +12,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from cranktrack.errors import CranktrackError
-from cranktrack.kinematics.crank_slider import CrankSlider, SliderState
+from cranktrack.kinematics.crank_slider import CrankSlider, SliderState, crank_state
 
 #: Thesis Table 2.2, mm and mm/s.
 TABLE_2_2 = {"L1": 160.8, "L2": 72.4, "L3_0": 105.4, "speed_mm_s": 14.0}
@@ -80,3 +80,52 @@ class SpoolDrive:
         rate = np.where(kink, np.nan, np.where(moving, -self.speed_mm_s, 0.0))
         accel = np.where(kink, np.nan, 0.0)
         return SliderState(L3=L3, L3_rate=rate, L3_accel=accel)
+
+
+def spool_motion(drive: SpoolDrive, t_s: ArrayLike, slack_mm: float = 0.0,
+                 growth_per_s: float = 0.0, ring_hz: float = 0.0, ring_zeta: float = 0.1
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """θ, ω, α (rad, rad/s, rad/s²) of the spool bed with effects the plain model lacks.
+
+    ``slack_mm``: the first slack of wire is wound in without pulling.
+    ``growth_per_s``: the wire speed grows by this fraction per second (the
+    spool's radius grows as wire layers on it); the drive still winds
+    ``stroke_mm`` and so stops sooner. ``ring_hz``, ``ring_zeta``: after the
+    stop the crank rings about its final angle (inertia against the return
+    spring), its velocity continuous at the stop. With all at 0 this is the
+    plain model.
+    """
+    t = np.asarray(t_s, dtype=float)
+    d, g = drive, growth_per_s
+    if not 0 <= slack_mm < d.stroke_mm:
+        raise CranktrackError(f"slack_mm must be at least 0 and below the stroke "
+                              f"({d.stroke_mm} mm)")
+    tau_stop = (d.stroke_mm / d.speed_mm_s if g == 0
+                else float((-1.0 + np.sqrt(1.0 + 2.0 * g * d.stroke_mm / d.speed_mm_s)) / g))
+
+    def wound(tau: NDArray) -> NDArray:
+        return d.speed_mm_s * (tau + 0.5 * g * tau**2)
+
+    def slider(tau: NDArray, moving: NDArray) -> SliderState:
+        L3 = d.L3_0 - np.maximum(wound(tau) - slack_mm, 0.0)
+        rate = np.where(moving, -d.speed_mm_s * (1.0 + g * tau), 0.0)
+        return SliderState(L3, rate, np.where(moving, -d.speed_mm_s * g, 0.0))
+
+    tau = np.clip(t - d.start_s, 0.0, tau_stop)
+    moving = (t > d.start_s) & (t < d.start_s + tau_stop) & (wound(tau) > slack_mm)
+    state = crank_state(d.bed, slider(tau, moving))
+    theta, omega, alpha = state.theta.copy(), state.omega.copy(), state.alpha.copy()
+    if ring_hz > 0:
+        end = crank_state(d.bed, slider(np.array([tau_stop]), np.array([True])))
+        th_f, w0 = float(end.theta[0]), float(end.omega[0])
+        wn = 2 * np.pi * ring_hz
+        wd = wn * np.sqrt(max(1.0 - ring_zeta**2, 1e-12))
+        after = t > d.start_s + tau_stop
+        s = t[after] - (d.start_s + tau_stop)
+        env, A = np.exp(-ring_zeta * wn * s), w0 / wd
+        sin, cos = np.sin(wd * s), np.cos(wd * s)
+        theta[after] = th_f + A * env * sin
+        omega[after] = A * env * (wd * cos - ring_zeta * wn * sin)
+        alpha[after] = A * env * (((ring_zeta * wn) ** 2 - wd**2) * sin
+                                  - 2 * ring_zeta * wn * wd * cos)
+    return theta, omega, alpha

@@ -19,9 +19,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cranktrack.errors import CranktrackError
-from cranktrack.kinematics.crank_slider import crank_state, l3_from_theta
-from cranktrack.kinematics.spool import SpoolDrive
-from cranktrack.synthetic.scenarios import Motion, SpoolScenario
+from cranktrack.kinematics.spool import spool_motion
+from cranktrack.synthetic.scenarios import Motion, SpoolScenario, motion_from_angle
 
 
 @dataclass(frozen=True)
@@ -86,76 +85,25 @@ def parse_effects(items: list[str] | None) -> dict[str, float]:
     return out
 
 
-def _wound(drive: SpoolDrive, growth: float, tau: NDArray) -> NDArray:
-    """Wire wound in τ seconds after the start at a speed growing by ``growth``/s, mm."""
-    return drive.speed_mm_s * (tau + 0.5 * growth * tau**2)
-
-
 @dataclass(frozen=True)
 class EffectedSpool:
     """The spool scenario with physical effects switched on.
 
-    The drive still winds ``stroke_mm`` of wire from ``start_s``; slack
-    makes the first ``slack_mm`` of it pull nothing, growth makes the speed
-    ramp, and the return spring makes the crank ring after the drive stops.
+    The physics is :func:`cranktrack.kinematics.spool.spool_motion` (a model
+    the fitting code can use too); this only turns it into marker positions.
     """
 
     base: SpoolScenario = field(default_factory=SpoolScenario)
     effects: dict[str, float] = field(default_factory=dict)
     name: str = "spool"
 
-    def _stop_tau(self) -> float:
-        d, g = self.base.drive, self.effects.get("spool_growth_per_s", 0.0)
-        if g == 0:
-            return d.stroke_mm / d.speed_mm_s
-        return float((-1.0 + np.sqrt(1.0 + 2.0 * g * d.stroke_mm / d.speed_mm_s)) / g)
-
     def motion(self, t_s: ArrayLike) -> Motion:
         t = np.asarray(t_s, dtype=float)
-        d = self.base.drive
-        g = self.effects.get("spool_growth_per_s", 0.0)
-        slack = self.effects.get("slack_mm", 0.0)
-        if not 0 <= slack < d.stroke_mm:
-            raise CranktrackError(f"slack_mm must be at least 0 and below the stroke "
-                                  f"({d.stroke_mm} mm)")
-        tau_stop = self._stop_tau()
-        tau = np.clip(t - d.start_s, 0.0, tau_stop)
-        pulled = np.maximum(_wound(d, g, tau) - slack, 0.0)
-        L3 = d.L3_0 - pulled
-        moving = (t > d.start_s) & (t < d.start_s + tau_stop) & (_wound(d, g, tau) > slack)
-        rate = np.where(moving, -d.speed_mm_s * (1.0 + g * tau), 0.0)
-        accel = np.where(moving, -d.speed_mm_s * g, 0.0)
-        from cranktrack.kinematics.crank_slider import SliderState
-
-        state = crank_state(d.bed, SliderState(L3, rate, accel))
-        theta, omega, alpha = state.theta.copy(), state.omega.copy(), state.alpha.copy()
-        f = self.effects.get("return_spring_hz", 0.0)
-        if f > 0:
-            # After the stop: velocity continuous, then a damped ring about θ_f.
-            zeta = self.effects.get("return_spring_zeta", 0.1)
-            t_stop = d.start_s + tau_stop
-            end = crank_state(d.bed, SliderState(
-                np.array([d.L3_0 - (_wound(d, g, np.array([tau_stop]))[0] - slack)]),
-                np.array([-d.speed_mm_s * (1 + g * tau_stop)]), np.array([-d.speed_mm_s * g])))
-            th_f, w0 = float(end.theta[0]), float(end.omega[0])
-            wn = 2 * np.pi * f
-            wd = wn * np.sqrt(max(1.0 - zeta**2, 1e-12))
-            after = t > t_stop
-            s = t[after] - t_stop
-            env = np.exp(-zeta * wn * s)
-            A = w0 / wd
-            theta[after] = th_f + A * env * np.sin(wd * s)
-            omega[after] = A * env * (wd * np.cos(wd * s) - zeta * wn * np.sin(wd * s))
-            alpha[after] = A * env * ((zeta * wn) ** 2 * np.sin(wd * s) - wd**2 * np.sin(wd * s)
-                                      - 2 * zeta * wn * wd * np.cos(wd * s))
-        B = d.L2 * np.stack([np.cos(theta), np.sin(theta)], axis=1)
-        vB = omega[:, None] * np.stack([-B[:, 1], B[:, 0]], axis=1)
-        L3_geo = l3_from_theta(theta, d.L1, d.L2)
-        L3_rate = d.L1 * d.L2 * np.sin(theta) * omega / L3_geo
-        return Motion(t_s=t, points_mm={"A": np.zeros_like(B), "B": B,
-                                        "C": np.tile([d.L1, 0.0], (len(t), 1))},
-                      theta=theta, omega=omega, alpha=alpha, vB_mm_s=vB, L3_mm=L3_geo,
-                      L3_rate_mm_s=L3_rate)
+        d, e = self.base.drive, self.effects
+        theta, omega, alpha = spool_motion(
+            d, t, slack_mm=e.get("slack_mm", 0.0), growth_per_s=e.get("spool_growth_per_s", 0.0),
+            ring_hz=e.get("return_spring_hz", 0.0), ring_zeta=e.get("return_spring_zeta", 0.1))
+        return motion_from_angle(t, theta, omega, alpha, d.L1, d.L2)
 
     def extent_mm(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         lo, hi = self.base.extent_mm()

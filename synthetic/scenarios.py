@@ -77,6 +77,19 @@ class SpoolScenario:
                 "theta0_deg": float(np.degrees(self.drive.bed.theta(self.drive.L3_0)))}
 
 
+def motion_from_angle(t: NDArray, theta: NDArray, omega: NDArray, alpha: NDArray, L1: float,
+                      L2: float) -> Motion:
+    """The full :class:`Motion` of a crank-slider (A at 0, C at (L1, 0)) from θ(t) and its
+    rates: B on the crank circle, v_B = ω × r_B/A, L3 = |BC| and its rate."""
+    B = L2 * np.stack([np.cos(theta), np.sin(theta)], axis=1)
+    vB = omega[:, None] * np.stack([-B[:, 1], B[:, 0]], axis=1)
+    L3 = l3_from_theta(theta, L1, L2)
+    return Motion(t_s=t, points_mm={"A": np.zeros_like(B), "B": B,
+                                    "C": np.tile([L1, 0.0], (len(t), 1))},
+                  theta=theta, omega=omega, alpha=alpha, vB_mm_s=vB, L3_mm=L3,
+                  L3_rate_mm_s=L1 * L2 * np.sin(theta) * omega / L3)
+
+
 class Scenario(Protocol):
     """What the renderer needs from a scenario."""
 
@@ -115,14 +128,7 @@ class FreeScenario:
         t_end = 10.0 * np.ceil(max(float(t.max()), 1e-9) / 10.0)
         theta, omega = d.solution(t_end, np.radians(self.theta_init_deg),
                                   self.omega_init_rad_s)(t)
-        alpha = d.accel(theta, omega)
-        B = d.L2 * np.stack([np.cos(theta), np.sin(theta)], axis=1)
-        vB = omega[:, None] * np.stack([-B[:, 1], B[:, 0]], axis=1)
-        L3 = l3_from_theta(theta, d.L1, d.L2)
-        return Motion(t_s=t, points_mm={"A": np.zeros_like(B), "B": B,
-                                        "C": np.tile([d.L1, 0.0], (len(t), 1))},
-                      theta=theta, omega=omega, alpha=alpha, vB_mm_s=vB, L3_mm=L3,
-                      L3_rate_mm_s=d.L1 * d.L2 * np.sin(theta) * omega / L3)
+        return motion_from_angle(t, theta, omega, d.accel(theta, omega), d.L1, d.L2)
 
     def extent_mm(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The crank's whole circle and the frame: wherever the motion goes."""
