@@ -141,13 +141,13 @@ def measure_kinematics(
     else:
         w, scores = window_samples(t, window_s, order), {}
 
-    d_theta = local_polynomial(t, theta, theta_sigma, w, order, adaptive=True)
-    scale = _noise_scale(d_theta.loo, theta_sigma, d_theta.value_sigma)
+    fit_theta = local_polynomial(t, theta, theta_sigma, w, order, adaptive=True)
+    scale = _noise_scale(fit_theta.loo, theta_sigma, fit_theta.value_sigma)
 
-    def diff(y: np.ndarray, s: np.ndarray) -> Derivatives:
+    def diff(y: np.ndarray, s: np.ndarray, d: Derivatives | None = None) -> Derivatives:
         """Rates with σ = calibrated noise ⊕ window bias (|this − next longer window|)
-        ⊕ window-selection spread near kinks."""
-        d = local_polynomial(t, y, s, w, order, adaptive=True)
+        ⊕ window-selection spread near kinks. ``d``: the fit at ``w``, if already made."""
+        d = d or local_polynomial(t, y, s, w, order, adaptive=True)
         wider = local_polynomial(t, y, s, w + 2, order, adaptive=True)
         bias1 = np.nan_to_num(np.abs(d.d1 - wider.d1))
         bias2 = np.nan_to_num(np.abs(d.d2 - wider.d2))
@@ -155,7 +155,7 @@ def measure_kinematics(
         s2 = np.sqrt((scale * d.d2_sigma) ** 2 + bias2**2 + np.nan_to_num(d.d2_select) ** 2)
         return replace(d, d1_sigma=s1, d2_sigma=s2)
 
-    d_theta = diff(theta, theta_sigma)
+    d_theta = diff(theta, theta_sigma, fit_theta)
     A, B, C = _xy(tracks, "A"), _xy(tracks, "B"), _xy(tracks, "C")
     sA, sB, sC = (tracks[f"{m}_sigma_mm"].to_numpy(float) for m in "ABC")
     dBx, dBy = diff(B[:, 0], sB), diff(B[:, 1], sB)

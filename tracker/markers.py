@@ -184,16 +184,16 @@ def acquire(hsv: NDArray[np.uint8], spec: MarkerSpec, expected_area: float | Non
     return blob, status, rivals
 
 
-def learn_spec(spec: MarkerSpec, rgb_patch: NDArray[np.uint8], centre: tuple[float, float],
+def learn_spec(spec: MarkerSpec, hsv: NDArray[np.uint8], centre: tuple[float, float],
                radius: float, x0: int, y0: int) -> MarkerSpec:
     """A spec re-centred on the hue actually seen in the marker's middle.
 
     Lighting shifts hues; the learned window is centred on the circular
     median hue of the pixels within 0.6 of the radius, ±15° or three times
     their spread, whichever is wider. The saturation and value floors stay,
-    so blurred edges still count.
+    so blurred edges still count. ``hsv`` is an OpenCV 8-bit HSV patch whose
+    top-left pixel is at (x0, y0).
     """
-    hsv = cv2.cvtColor(np.ascontiguousarray(rgb_patch), cv2.COLOR_RGB2HSV)
     h, w = hsv.shape[:2]
     yy, xx = np.mgrid[0:h, 0:w]
     inner = (xx + x0 - centre[0]) ** 2 + (yy + y0 - centre[1]) ** 2 <= (0.6 * radius) ** 2

@@ -14,7 +14,6 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-import cv2
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
@@ -61,14 +60,18 @@ GAIN_RANGE = (0.5, 1.7)
 class _MarkerState:
     spec: MarkerSpec
     learned: bool = False
-    radius: float | None = None
-    area: float | None = None
+    radius: float | None = None  # from the first fit, px
     history: list[tuple[float, float, float]] = field(default_factory=list)  # (t, x, y)
     shape: tuple[float, ...] | None = None  # last fitted disc parameters
     marker: NDArray | None = None  # learned marker chroma
     residual: float | None = None  # usual RMS residual of the disc fit
     area_alpha: float | None = None  # usual visible area Σα, px²
     notes: list[str] = field(default_factory=list)  # things the user should hear about
+
+    @property
+    def area(self) -> float | None:
+        """The marker's expected blob area, px² (from its radius)."""
+        return None if self.radius is None else float(np.pi * self.radius**2)
 
     def whole(self, centre: Centre) -> bool:
         """Does the fit look like the whole marker: its usual visible area and residual?"""
@@ -202,11 +205,9 @@ def _locate(rgb: NDArray[np.uint8], state: _MarkerState, t: float, hsv_cache: di
                 f"{where}; if that is the wrong one, cover or recolour the others")
     radius = state.radius or blob.radius
     if not state.learned:
-        patch, x0, y0 = _patch(rgb, blob.x, blob.y, radius + 3)
-        if hsv_cache.get("gains") is not None:
-            patch = cv2.transform(np.ascontiguousarray(patch),
-                                  np.diag(hsv_cache["gains"].astype(np.float64)))
-        state.spec = learn_spec(state.spec, patch, (blob.x, blob.y), radius, x0, y0)
+        # Learning follows a full-frame search, whose white-balanced HSV is at hand.
+        hsv_patch, x0, y0 = _patch(hsv_cache["full"], blob.x, blob.y, radius + 3)
+        state.spec = learn_spec(state.spec, hsv_patch, (blob.x, blob.y), radius, x0, y0)
         state.learned = True
     centre, seen = refine(rgb, (blob.x, blob.y), radius, state.marker)
     if not centre.ok or (state.marker is not None
@@ -215,7 +216,7 @@ def _locate(rgb: NDArray[np.uint8], state: _MarkerState, t: float, hsv_cache: di
     if not state.whole(centre):
         return None, "partly_covered"
     if state.radius is None:
-        state.radius, state.area = centre.radius, np.pi * centre.radius**2
+        state.radius = centre.radius
     state.remember(centre, seen)
     return centre, "ok"
 
