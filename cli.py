@@ -314,6 +314,45 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_fit(args: argparse.Namespace) -> int:
+    from cranktrack.kinematics.discrepancy import parse_known
+    from cranktrack.pipeline import fit_run
+
+    known = parse_known(args.known, args.model)
+    result, files = fit_run(Path(args.run), args.model, known)
+    _print_fit(result.to_dict())
+    if args.rerun:
+        files.append(_record(Path(args.run), spawn=False, path=Path(args.rerun)))
+    print(f"wrote {', '.join(f.name for f in files)} in {args.run} (fit/ for the loop's files)")
+    return 0
+
+
+def _print_fit(report: dict) -> None:
+    for m in report["messages"]:
+        print(f"note: {m}")
+    rows = [["", "θ RMSE (deg)", "max (deg)", "fit %", "residual white"]]
+    for label, key in (("before (base model)", "before"), ("after", "after")):
+        rows.append([label, f"{report[f'rmse_{key}_deg']:.4g}", f"{report[f'max_{key}_deg']:.4g}",
+                     f"{report[f'fit_percent_{key}']:.3f}", str(report[f"residual_white_{key}"])])
+    print(_format_table(rows))
+    accepted = [c for c in report["candidates"] if c["accepted"]]
+    if not accepted:
+        print("effects accepted: none (no candidate explains the residual beyond the noise)")
+    final = report["parameters"]
+    for c in accepted:
+        values = ", ".join(f"{k} = {final[k]['value']:.4g} ± {final[k]['sigma']:.2g}"
+                           for k in c["parameters"])
+        print(f"effect accepted (round {c['round']}): {c['name']}: {values} "
+              f"(ΔBIC {c['delta_bic']:.0f} when added)")
+    for g in report["look_alike_groups"]:
+        print(f"look-alikes: {', '.join(g['effects'])} fit equally well; to tell them apart, "
+              f"{g['separated_by']}")
+    for n in report["not_separable"]:
+        print(f"not tried: {n['name']} needs --known {' or '.join(n['needs'])}")
+    if report["unexplained"]:
+        print(f"unexplained: {report['unexplained']}")
+
+
 def _board(args: argparse.Namespace):
     from cranktrack.calibration.camera import Board
 
@@ -545,6 +584,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fit-speed", action="store_true",
                    help="fit the speed too (then L1 is held at its measured value)")
     p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("fit", help="fit a model to a run, find the effect it lacks, report "
+                       "before and after")
+    p.add_argument("run", help="run folder written by `cranktrack track`")
+    p.add_argument("--model", choices=["spool", "sma", "dynamic"], default="spool",
+                   help="base model (spool: thesis §2.5.2; sma and dynamic are not yet "
+                   "fittable)")
+    p.add_argument("--known", action="append", metavar="NAME=VALUE",
+                   help="a value known from the rig, held fixed (repeatable): L1_mm, L2_mm, "
+                   "L3_0_mm, speed_mm_s, start_s (drive switched on, video clock), stroke_mm")
+    p.add_argument("--rerun", metavar="FILE.rrd",
+                   help="also write a Rerun recording of the run with the fit")
+    p.set_defaults(func=cmd_fit)
 
     p = sub.add_parser("sweep", help="parametric maps over frame length and starting angle")
     p.add_argument("metric", choices=["rocking-angle", "torque", "work"])

@@ -27,8 +27,10 @@ from cranktrack.calibration.plane import (
 from cranktrack.errors import CranktrackError
 from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic, write_text_atomic
 from cranktrack.kinematics.compare import Comparison, compare_spool
+from cranktrack.kinematics.discrepancy import LoopResult, close_loop
 from cranktrack.kinematics.measured import measure_kinematics
 from cranktrack.kinematics.plots import plot_comparison
+from cranktrack.report.fit import write_fit_report
 from cranktrack.report.summary import write_report
 from cranktrack.tracker.gaps import fill_gaps
 from cranktrack.tracker.markers import DEFAULT_MARKERS, MarkerSpec
@@ -193,13 +195,8 @@ def track_run(
     return RunResult(folder, tracks, kinematics, cal, files, warnings)
 
 
-def compare_run(run: Path, fixed: dict[str, float]) -> tuple[Comparison, list[Path]]:
-    """Fit the spool model to ``run/kinematics.csv`` and write the comparison.
-
-    Writes ``compare.csv`` (measured, σ, model and error side by side),
-    ``compare.json`` (fitted parameters ± 1σ, fixed ones, error figures),
-    ``compare.md`` and the figures; returns the comparison and the paths.
-    """
+def read_kinematics(run: Path) -> pd.DataFrame:
+    """``run/kinematics.csv``, checked to be a cranktrack kinematics table."""
     path = Path(run) / "kinematics.csv"
     if not path.is_file():
         raise CranktrackError(f"{path} does not exist; run `cranktrack track VIDEO --out {run} "
@@ -212,6 +209,47 @@ def compare_run(run: Path, fixed: dict[str, float]) -> tuple[Comparison, list[Pa
     if missing:
         raise CranktrackError(f"{path} lacks the column(s) {sorted(missing)}; is it a "
                               "cranktrack kinematics table?")
+    return measured
+
+
+def _image_context(run: Path, measured: pd.DataFrame) -> dict[str, np.ndarray]:
+    """Where B is in the image, per kinematics row: a camera effect (lens, tilt, rolling
+    shutter) leaves a residual that follows these, a mechanism effect does not."""
+    import json
+
+    try:
+        tracks = pd.read_csv(run / "tracks.csv", usecols=["frame", "B_x_px", "B_y_px"])
+        source = json.loads((run / "run.json").read_text()).get("source", {})
+    except (OSError, ValueError):
+        return {}
+    rows = measured[["frame"]].merge(tracks, on="frame", how="left")
+    ctx = {"B image row": rows["B_y_px"].to_numpy(float)}
+    if source.get("width") and source.get("height"):
+        cx, cy = (source["width"] - 1) / 2, (source["height"] - 1) / 2
+        ctx["B distance from image centre"] = np.hypot(rows["B_x_px"] - cx,
+                                                       rows["B_y_px"] - cy).to_numpy(float)
+    return ctx
+
+
+def fit_run(run: Path, model: str, known: dict[str, float]) -> tuple[LoopResult, list[Path]]:
+    """Close the loop on ``run/kinematics.csv``; write ``run/fit/`` and refresh the report."""
+    run = Path(run)
+    measured = read_kinematics(run)
+    result = close_loop(measured, known, model, context=_image_context(run, measured))
+    ok = np.isfinite(measured["t_s"]) & np.isfinite(measured["theta_deg"])
+    files = write_fit_report(run / "fit", result, measured["t_s"].to_numpy(float)[ok])
+    files.append(write_report(run))
+    return result, files
+
+
+def compare_run(run: Path, fixed: dict[str, float]) -> tuple[Comparison, list[Path]]:
+    """Fit the spool model to ``run/kinematics.csv`` and write the comparison.
+
+    Writes ``compare.csv`` (measured, σ, model and error side by side),
+    ``compare.json`` (fitted parameters ± 1σ, fixed ones, error figures),
+    ``compare.md`` and the figures; returns the comparison and the paths.
+    """
+    measured = read_kinematics(run)
     result = compare_spool(measured, fixed)
     report = {**result.fit.to_dict(), "errors": result.summary.to_dict(orient="records")}
     files = [write_csv_atomic(run / "compare.csv", result.table),

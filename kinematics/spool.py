@@ -83,7 +83,8 @@ class SpoolDrive:
 
 
 def spool_motion(drive: SpoolDrive, t_s: ArrayLike, slack_mm: float = 0.0,
-                 growth_per_s: float = 0.0, ring_hz: float = 0.0, ring_zeta: float = 0.1
+                 growth_per_s: float = 0.0, ring_hz: float = 0.0, ring_zeta: float = 0.1,
+                 rates: bool = True
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """θ, ω, α (rad, rad/s, rad/s²) of the spool bed with effects the plain model lacks.
 
@@ -93,7 +94,8 @@ def spool_motion(drive: SpoolDrive, t_s: ArrayLike, slack_mm: float = 0.0,
     ``stroke_mm`` and so stops sooner. ``ring_hz``, ``ring_zeta``: after the
     stop the crank rings about its final angle (inertia against the return
     spring), its velocity continuous at the stop. With all at 0 this is the
-    plain model.
+    plain model. ``rates=False`` skips ω and α (returned as NaN) for a fit
+    that needs only θ, at a third of the cost.
     """
     t = np.asarray(t_s, dtype=float)
     d, g = drive, growth_per_s
@@ -113,8 +115,12 @@ def spool_motion(drive: SpoolDrive, t_s: ArrayLike, slack_mm: float = 0.0,
 
     tau = np.clip(t - d.start_s, 0.0, tau_stop)
     moving = (t > d.start_s) & (t < d.start_s + tau_stop) & (wound(tau) > slack_mm)
-    state = crank_state(d.bed, slider(tau, moving))
-    theta, omega, alpha = state.theta.copy(), state.omega.copy(), state.alpha.copy()
+    if rates:
+        state = crank_state(d.bed, slider(tau, moving))
+        theta, omega, alpha = state.theta.copy(), state.omega.copy(), state.alpha.copy()
+    else:
+        theta = d.bed.theta(slider(tau, moving).L3)
+        omega = alpha = np.full_like(theta, np.nan)
     if ring_hz > 0:
         end = crank_state(d.bed, slider(np.array([tau_stop]), np.array([True])))
         th_f, w0 = float(end.theta[0]), float(end.omega[0])

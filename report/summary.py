@@ -108,6 +108,14 @@ def write_report(run: str | os.PathLike) -> Path:
                          f"{e['max_abs']:.4g} {e['unit']} | {e['fit_pct']:.2f} |")
         figs = sorted(run.glob("fig_*.png"))
         lines += [""] + [f"![{f.stem}]({f.name})" for f in figs]
+    fit = _json(run / "fit" / "report.json")
+    if fit:
+        effects = ", ".join(fit["effects"]) or "none"
+        lines += ["", f"## Closing the loop ({fit['model']} model)", "",
+                  f"Effects accepted: {effects}. θ RMSE {fit['rmse_before_deg']:.4g}° before, "
+                  f"{fit['rmse_after_deg']:.4g}° after; fit {fit['fit_percent_before']:.2f} % → "
+                  f"{fit['fit_percent_after']:.2f} %. Details in [fit/report.md](fit/report.md).",
+                  "", "![residuals](fit/residuals.png)"]
     if info.get("warnings"):
         lines += ["", "## Warnings", ""] + [f"- {w}" for w in info["warnings"]]
     return write_text_atomic(run / "report.md", "\n".join(lines) + "\n")

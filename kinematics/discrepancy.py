@@ -1,0 +1,667 @@
+"""Close the loop between measured θ(t) and a model: residual, missing effect, before/after.
+
+1. The base model is fitted by simulation (output error): least squares of
+   measured minus simulated θ over every parameter the user did not fix
+   (``known``), from several starts.
+2. Its residual is diagnosed: RMS, largest, fit%, Ljung–Box whiteness, and
+   what it correlates with (time, θ, ω, the sign of ω, the drive's phases,
+   the marker's place in the image).
+3. Every candidate effect (:data:`CANDIDATES`, each a model extension with
+   its own physical parameters) is fitted on top of the current model.
+4. The best is accepted only if ΔBIC > 10, its parameter's 95 % interval
+   excludes "no effect" and the value is physically plausible; then the
+   rest are tried again on top of it, until nothing more is accepted or the
+   residual is down to the measurement's own error.
+
+Tracker errors on compressed video are mostly a slowly varying bias (the
+same marker at the same place gives the same error), so the residual of a
+right model is not white. Counting every frame as independent evidence
+would then accept effects that merely bend around that bias. The BIC and the
+parameter intervals therefore use an effective number of samples
+``n·(1 − ρ)/(1 + ρ)`` from the lag-1 autocorrelation ρ of the residual
+(the AR(1) variance inflation), which keeps null data from "discovering"
+effects while an effect that is really there still wins by a wide margin.
+
+Candidates a model cannot tell apart are handled openly: an effect that
+needs a known value to be separable (a dead time is a later start unless the
+start time is known) is not fitted without it and the report says which
+value would separate it; candidates that fit equally well are reported as a
+group with the experiment that would tell them apart.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+from scipy.optimize import least_squares
+from statsmodels.stats.diagnostic import acorr_ljungbox
+
+from cranktrack.errors import CranktrackError
+from cranktrack.kinematics.compare import fit_percent
+from cranktrack.kinematics.spool import TABLE_2_2, SpoolDrive, spool_motion
+
+#: ΔBIC an effect must win by ("very strong" evidence on the Kass–Raftery scale).
+BIC_THRESHOLD = 10.0
+#: Two candidates whose ΔBIC differ by less than this explain the residual equally well.
+LOOK_ALIKE_BIC = 2.0
+#: Model evaluations per least-squares start: kinked models (a drive that starts and
+#: stops) can crawl along a valley for thousands of steps without gaining anything.
+MAX_EVALUATIONS = 200
+#: Ljung–Box p-value below which a residual is called structured.
+WHITE_P = 0.01
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A model parameter: its unit and the bounds a fit keeps it in."""
+
+    name: str
+    unit: str
+    lower: float
+    upper: float
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """An effect the base model lacks, as an extension with its own parameters.
+
+    ``off`` is the value of the first parameter at which the effect vanishes
+    (``inf`` for a ring frequency: an infinitely stiff spring stops dead);
+    ``plausible`` the range a real rig can have; ``needs_known`` known values
+    of which at least one is needed to tell the effect from the base model's
+    own parameters; ``family`` groups effects that look alike, and
+    ``separated_by`` says what experiment tells this one from its family.
+    """
+
+    name: str
+    kind: str
+    parameters: tuple[Parameter, ...]
+    starts: tuple[tuple[float, ...], ...]
+    off: float
+    plausible: tuple[float, float]
+    shows_as: str
+    needs_known: tuple[str, ...] = ()
+    family: str = ""
+    separated_by: str = ""
+
+
+#: Base parameters of the spool model, named as ``--known`` takes them.
+SPOOL_BASE = {
+    "start_s": Parameter("start_s", "s", -np.inf, np.inf),
+    "stroke_mm": Parameter("stroke_mm", "mm", 0.01, 1e4),
+    "L1_mm": Parameter("L1_mm", "mm", 1.0, 1e5),
+    "L2_mm": Parameter("L2_mm", "mm", 1.0, 1e5),
+    "L3_0_mm": Parameter("L3_0_mm", "mm", 1.0, 1e5),
+    "speed_mm_s": Parameter("speed_mm_s", "mm/s", 1e-3, 1e4),
+}
+
+_DELAY = ("know the stroke (slack shrinks the rocking angle, a clock offset does not) "
+          "or film the drive's start signal (an LED lit with the servo)")
+
+#: The effects the spool model can be extended by.
+CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
+    Candidate("slack_mm", "physical", (Parameter("slack_mm", "mm", 0.0, 50.0),),
+              ((0.5,), (2.0,)), 0.0, (0.0, 50.0),
+              "the crank starts slack/speed after the drive and rocks through a smaller angle",
+              needs_known=("start_s", "stroke_mm"), family="delay", separated_by=_DELAY),
+    Candidate("time_offset_s", "recording", (Parameter("time_offset_s", "s", -5.0, 5.0),),
+              ((0.05,), (-0.05,)), 0.0, (-5.0, 5.0),
+              "every event happens later (or earlier) on the video's clock than the known start",
+              needs_known=("start_s",), family="delay", separated_by=_DELAY),
+    Candidate("spool_growth_per_s", "physical",
+              (Parameter("spool_growth_per_s", "1/s", -0.9, 10.0),),
+              ((0.1,), (0.5,)), 0.0, (0.0, 5.0),
+              "ω grows during the stroke beyond the constant-speed model's and the stroke "
+              "ends sooner"),
+    Candidate("return_spring_hz", "physical",
+              (Parameter("return_spring_hz", "Hz", 0.05, 1e3),
+               Parameter("return_spring_zeta", "1", 0.001, 0.99)),
+              ((0.5, 0.1), (1.0, 0.1), (2.0, 0.1), (4.0, 0.1), (8.0, 0.1)), np.inf,
+              (0.05, np.inf),
+              "after the drive stops the crank overshoots and rings about its final angle"),
+    Candidate("clock_scale", "recording", (Parameter("clock_scale", "1", 0.2, 5.0),),
+              ((1.02,), (0.98,)), 1.0, (0.2, 5.0),
+              "every rate is off by one factor: the container's frame rate is not the "
+              "camera's (true time = clock_scale × video time)",
+              needs_known=("speed_mm_s",), family="rate",
+              separated_by="film a clock or a stopwatch, or measure the spool speed on the bench"),
+)}
+
+#: Names ``--known`` accepts per model.
+KNOWN_NAMES = {"spool": tuple(SPOOL_BASE)}
+
+
+def parse_known(items: list[str] | None, model: str = "spool") -> dict[str, float]:
+    """``["L1_mm=160.8", "start_s=0.5"]`` → a dict, checked against the model's names."""
+    names = KNOWN_NAMES.get(model)
+    if names is None:
+        raise CranktrackError(f"the {model!r} model cannot be fitted yet; available: "
+                              f"{', '.join(KNOWN_NAMES)}")
+    out: dict[str, float] = {}
+    for item in items or []:
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or name not in names:
+            raise CranktrackError(f"--known {item!r} is not NAME=VALUE with a {model} "
+                                  f"parameter ({', '.join(names)})")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise CranktrackError(f"--known {item!r}: {value!r} is not a number") from None
+        if not np.isfinite(out[name]):
+            raise CranktrackError(f"--known {item!r} is not a finite number")
+    return out
+
+
+def spool_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[np.float64]:
+    """θ (rad) of the spool model with whichever candidate effects ``values`` sets.
+
+    Raises :class:`CranktrackError` when the values give a linkage that cannot close.
+    """
+    v = values
+    start = v["start_s"]
+    # A wrong clock stretches time about the known start, then an offset shifts it.
+    tt = start + v.get("clock_scale", 1.0) * (t_s - start) - v.get("time_offset_s", 0.0)
+    drive = SpoolDrive(L1=v["L1_mm"], L2=v["L2_mm"], L3_0=v["L3_0_mm"],
+                       speed_mm_s=v["speed_mm_s"], start_s=start, stroke_mm=v["stroke_mm"])
+    theta = spool_motion(drive, tt, slack_mm=v.get("slack_mm", 0.0),
+                         growth_per_s=v.get("spool_growth_per_s", 0.0),
+                         ring_hz=v.get("return_spring_hz", 0.0),
+                         ring_zeta=v.get("return_spring_zeta", 0.1), rates=False)[0]
+    if not np.all(np.isfinite(theta)):
+        raise CranktrackError("the linkage does not close for these values")
+    return theta
+
+
+def effective_samples(residual: NDArray[np.float64]) -> float:
+    """``n·(1 − ρ)/(1 + ρ)`` with ρ the lag-1 autocorrelation (≥ 0), at least 3."""
+    r = residual - residual.mean()
+    n = r.size
+    denom = float(r @ r)
+    rho = float(r[1:] @ r[:-1]) / denom if denom > 0 else 0.0
+    rho = min(max(rho, 0.0), 0.99)
+    return max(n * (1.0 - rho) / (1.0 + rho), 3.0)
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """The measurement error fits are judged against: a per-frame 1-σ of θ and
+    the effective number of independent frames among ``n``."""
+
+    sigma_deg: float
+    n: int
+    n_eff: float
+    source: str
+
+    @property
+    def inflation(self) -> float:
+        """Variance inflation of a mean over the frames, ``n / n_eff``."""
+        return self.n / self.n_eff
+
+    @property
+    def variance(self) -> float:
+        """σ² in rad²."""
+        return float(np.radians(self.sigma_deg) ** 2)
+
+    @classmethod
+    def from_residual(cls, residual: NDArray[np.float64], k: int, floor_rad: float,
+                      source: str) -> NoiseModel:
+        """From a fit's residual (rad) with ``k`` free parameters: its RMS, but never
+        below the tracker's own σ (``floor_rad``), and its lag-1 correlation."""
+        n = residual.size
+        s2 = max(float(residual @ residual) / max(n - k, 1), floor_rad**2)
+        return cls(float(np.degrees(np.sqrt(s2))), n, effective_samples(residual), source)
+
+    def to_dict(self) -> dict:
+        return {"sigma_deg": self.sigma_deg, "frames": self.n,
+                "effective_frames": self.n_eff, "source": self.source}
+
+
+@dataclass(frozen=True)
+class ModelFit:
+    """One fitted model: its effects, all values, the free ones' unit covariance
+    ``(JᵀJ)⁻¹`` (times the error variance it is the covariance), θ model and
+    residual (rad)."""
+
+    effects: tuple[str, ...]
+    values: dict[str, float]
+    free: tuple[str, ...]
+    unit_cov: NDArray[np.float64]
+    model: NDArray[np.float64]
+    residual: NDArray[np.float64]
+
+    @property
+    def rss(self) -> float:
+        return float(self.residual @ self.residual)
+
+    @property
+    def rmse_deg(self) -> float:
+        return float(np.degrees(np.sqrt(np.mean(self.residual**2))))
+
+    def sigmas(self, noise: NoiseModel) -> dict[str, float]:
+        """1-σ of the free parameters under ``noise`` (correlated frames counted once)."""
+        var = np.clip(np.diag(self.unit_cov), 0.0, None) * noise.variance * noise.inflation
+        return {k: float(v) for k, v in zip(self.free, np.sqrt(var), strict=True)}
+
+
+def delta_bic(simpler: ModelFit, richer: ModelFit, noise: NoiseModel) -> float:
+    """BIC(simpler) − BIC(richer) for Gaussian errors of the noise model's variance,
+    with ``n_eff`` independent frames (so ``ΔRSS`` counts ``n_eff / n`` of itself)."""
+    dk = len(richer.free) - len(simpler.free)
+    return float((simpler.rss - richer.rss) / (noise.variance * noise.inflation)
+                 - dk * np.log(noise.n_eff))
+
+
+def _fit(t: NDArray, theta: NDArray, simulate: Callable, fixed: dict[str, float],
+         free: list[Parameter], starts: list[list[float]], effects: tuple[str, ...]
+         ) -> ModelFit | None:
+    """Least squares of ``theta − simulate(values, t)`` from each start; the best, or None."""
+    def values_of(x: NDArray) -> dict[str, float]:
+        return {**fixed, **{p.name: float(v) for p, v in zip(free, x, strict=True)}}
+
+    def residual(x: NDArray) -> NDArray:
+        try:
+            return theta - simulate(values_of(x), t)
+        except (CranktrackError, ValueError, FloatingPointError):
+            return np.full(t.size, 10.0)  # a linkage that cannot close: far from any fit
+
+    lo = np.array([p.lower for p in free])
+    hi = np.array([p.upper for p in free])
+    width = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
+    best = None
+    for x0 in starts:
+        x0 = np.clip(np.asarray(x0, float), lo + 1e-9 * width, hi - 1e-9 * width)
+        if np.all(residual(x0) == 10.0):
+            continue
+        with np.errstate(all="ignore"):
+            sol = least_squares(residual, x0, bounds=(lo, hi), x_scale="jac", method="trf",
+                                diff_step=1e-7, max_nfev=MAX_EVALUATIONS)
+        if best is None or sol.cost < best.cost:
+            best = sol
+    if best is None or np.all(best.fun == 10.0):
+        return None
+    unit_cov = np.linalg.pinv(best.jac.T @ best.jac)
+    return ModelFit(effects, values_of(best.x), tuple(p.name for p in free), unit_cov,
+                    theta - best.fun, best.fun)
+
+
+def ljung_box_p(residual: NDArray[np.float64], lags: int | None = None) -> float:
+    """Ljung–Box p-value of a residual (small: structured, not white)."""
+    n = residual.size
+    if n < 12:
+        return float("nan")
+    lags = lags or int(min(10, n // 5))
+    return float(acorr_ljungbox(residual - residual.mean(), lags=[lags])["lb_pvalue"].iloc[0])
+
+
+def diagnose(fit: ModelFit, measured_deg: NDArray[np.float64], t: NDArray[np.float64],
+             context: dict[str, NDArray[np.float64]] | None = None) -> dict:
+    """Figures and correlations of a fit's residual.
+
+    ``context`` adds series (same length) to correlate with, e.g. a marker's
+    image row. Returns ``rmse_deg``, ``max_deg``, ``fit_percent``,
+    ``ljung_box_p``, ``lag1_autocorrelation``, ``correlations`` (Pearson r,
+    largest first) and ``phases`` (RMS before the drive, moving, after it).
+    """
+    r = np.degrees(fit.residual)
+    model_deg = np.degrees(fit.model)
+    omega = np.gradient(fit.model, t)
+    moving = np.abs(omega) > 1e-6 * max(float(np.max(np.abs(omega))), 1e-12)
+    series = {"time": t, "theta": model_deg, "omega": omega, "sign(omega)": np.sign(omega),
+              **(context or {})}
+    corr = {}
+    for name, x in series.items():
+        ok = np.isfinite(x)
+        if ok.sum() > 3 and np.std(x[ok]) > 0 and np.std(r[ok]) > 0:
+            corr[name] = float(np.corrcoef(x[ok], r[ok])[0, 1])
+    moved = np.flatnonzero(moving)
+    phases = {}
+    if moved.size:
+        parts = {"before": slice(0, moved[0]), "moving": slice(moved[0], moved[-1] + 1),
+                 "after": slice(moved[-1] + 1, r.size)}
+        for name, s in parts.items():
+            if r[s].size:
+                phases[name] = {"rmse_deg": float(np.sqrt(np.mean(r[s] ** 2))),
+                                "frames": int(r[s].size)}
+    rc = r - r.mean()
+    lag1 = float(rc[1:] @ rc[:-1] / (rc @ rc)) if rc @ rc > 0 else 0.0
+    return {
+        "rmse_deg": float(np.sqrt(np.mean(r**2))),
+        "max_deg": float(np.max(np.abs(r))),
+        "fit_percent": fit_percent(measured_deg, model_deg),
+        "ljung_box_p": ljung_box_p(r),
+        "lag1_autocorrelation": lag1,
+        "correlations": dict(sorted(corr.items(), key=lambda kv: -abs(kv[1]))),
+        "phases": phases,
+    }
+
+
+@dataclass(frozen=True)
+class CandidateScore:
+    """One candidate tried on top of the current model in one round.
+
+    ``imprint_deg`` is the largest change the effect makes to θ at its
+    fitted value; ``resolvable`` says whether that rises above the noise
+    (3σ) anywhere — an effect smaller than the tracker's own error cannot
+    be told from it, however well it happens to bend around that error.
+    """
+
+    name: str
+    round: int
+    delta_bic: float
+    rmse_deg: float
+    values: dict[str, float]
+    sigmas: dict[str, float]
+    imprint_deg: float
+    ci_excludes_off: bool
+    plausible: bool
+    resolvable: bool
+    accepted: bool = False
+    note: str = ""
+
+    @property
+    def passes(self) -> bool:
+        return (self.delta_bic > BIC_THRESHOLD and self.ci_excludes_off and self.plausible
+                and self.resolvable)
+
+    def why_not(self) -> str:
+        why = []
+        if self.delta_bic <= BIC_THRESHOLD:
+            why.append(f"ΔBIC {self.delta_bic:.1f} ≤ {BIC_THRESHOLD:g}")
+        if not self.ci_excludes_off:
+            why.append("its 95 % interval includes no effect")
+        if not self.plausible:
+            why.append("value not physically plausible or stuck on a bound")
+        if not self.resolvable:
+            why.append(f"its imprint ({self.imprint_deg:.3g}°) is below 3σ of the noise")
+        return "; ".join(why) or "a better candidate was accepted"
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "round": self.round, "delta_bic": self.delta_bic,
+                "rmse_deg": self.rmse_deg, "imprint_deg": self.imprint_deg,
+                "parameters": {k: {"value": v, "sigma": self.sigmas.get(k)}
+                               for k, v in self.values.items()},
+                "ci_excludes_off": self.ci_excludes_off, "plausible": self.plausible,
+                "resolvable": self.resolvable, "accepted": self.accepted, "note": self.note}
+
+
+def _switched_off(c: Candidate) -> dict[str, float]:
+    """Values that make the simulation leave the effect out (a ring of 0 Hz is none)."""
+    return {c.parameters[0].name: 0.0 if np.isinf(c.off) else c.off}
+
+
+def _score(c: Candidate, rnd: int, current: ModelFit, alt: ModelFit, noise: NoiseModel,
+           t: NDArray, simulate: Callable, nyquist_hz: float) -> CandidateScore:
+    """ΔBIC, interval, plausibility and imprint of ``alt`` = ``current`` + ``c``."""
+    sig = alt.sigmas(noise)
+    p = c.parameters[0].name
+    v, s = alt.values[p], sig[p]
+    if not (np.isfinite(s) and s > 0):
+        excludes = False
+    elif np.isinf(c.off):  # a ring: resolved only if its whole interval is below Nyquist
+        excludes = v + 1.96 * s < nyquist_hz
+    else:
+        excludes = abs(v - c.off) > 1.96 * s
+
+    def free_of_bounds(q: Parameter) -> bool:
+        x, tol = alt.values[q.name], 1e-6 * max(1.0, abs(q.lower), abs(q.upper))
+        return q.lower + tol < x < q.upper - tol
+
+    lo, hi = c.plausible
+    plausible = lo <= v <= hi and all(free_of_bounds(q) for q in c.parameters)
+    try:
+        without = simulate({**alt.values, **_switched_off(c)}, t)
+        imprint = float(np.degrees(np.max(np.abs(alt.model - without))))
+    except CranktrackError:
+        imprint = float("nan")
+    return CandidateScore(c.name, rnd, delta_bic(current, alt, noise), alt.rmse_deg,
+                          {q.name: alt.values[q.name] for q in c.parameters},
+                          {q.name: sig[q.name] for q in c.parameters}, imprint,
+                          bool(excludes), bool(plausible),
+                          bool(imprint > 3.0 * noise.sigma_deg))
+
+
+@dataclass(frozen=True)
+class LoopResult:
+    """What the loop found: the base fit, each accepted step, every candidate's score."""
+
+    model: str
+    known: dict[str, float]
+    base: ModelFit
+    final: ModelFit
+    steps: list[ModelFit]
+    scores: list[CandidateScore]
+    not_separable: list[dict]
+    groups: list[dict]
+    diagnosis_before: dict
+    diagnosis_after: dict
+    noise: NoiseModel
+    tracker_sigma_deg: float
+    messages: list[str] = field(default_factory=list)
+
+    @property
+    def effects(self) -> list[str]:
+        return list(self.final.effects)
+
+    def to_dict(self) -> dict:
+        units = {**{k: p.unit for k, p in SPOOL_BASE.items()},
+                 **{p.name: p.unit for c in CANDIDATES.values() for p in c.parameters}}
+        sig = self.final.sigmas(self.noise)
+        params = {}
+        for k, v in self.final.values.items():
+            entry = {"value": v, "unit": units.get(k, ""), "fixed": k not in sig}
+            if k in sig:
+                entry.update(sigma=sig[k], ci95=[v - 1.96 * sig[k], v + 1.96 * sig[k]])
+            params[k] = entry
+        before, after = self.diagnosis_before, self.diagnosis_after
+        unexplained = None
+        # Against the tracker's own σ: the noise model's σ grows with whatever
+        # structure no candidate could fit, and would hide exactly this.
+        level = self.tracker_sigma_deg or self.noise.sigma_deg
+        if after["rmse_deg"] > 1.5 * level and after["ljung_box_p"] < WHITE_P:
+            top = next(iter(after["correlations"].items()), None)
+            unexplained = ("the residual stays structured and matches no candidate"
+                           + (f"; it correlates most with {top[0]} (r = {top[1]:.2f})"
+                              if top else ""))
+        return {
+            "model": self.model,
+            "known": self.known,
+            "effects": self.effects,
+            "rmse_before_deg": before["rmse_deg"],
+            "rmse_after_deg": after["rmse_deg"],
+            "max_before_deg": before["max_deg"],
+            "max_after_deg": after["max_deg"],
+            "fit_percent_before": before["fit_percent"],
+            "fit_percent_after": after["fit_percent"],
+            "noise": self.noise.to_dict(),
+            "tracker_sigma_deg": self.tracker_sigma_deg,
+            "residual_white_before": bool(before["ljung_box_p"] >= WHITE_P),
+            "residual_white_after": bool(after["ljung_box_p"] >= WHITE_P),
+            "residual_at_noise_level_after": bool(after["rmse_deg"] <= 1.5 * level),
+            "parameters": params,
+            "steps": [{"effect": s.effects[-1], "rmse_deg": s.rmse_deg} for s in self.steps],
+            "candidates": [s.to_dict() for s in self.scores],
+            "not_separable": self.not_separable,
+            "look_alike_groups": self.groups,
+            "unexplained": unexplained,
+            "diagnosis_before": before,
+            "diagnosis_after": after,
+            "messages": self.messages,
+        }
+
+
+def _spool_guess(t: NDArray, theta: NDArray, measured: pd.DataFrame,
+                 known: dict[str, float]) -> dict[str, float]:
+    """Base values to start from: measured link lengths, the first frames' wire length,
+    the thesis's speed, and the start where θ first clearly leaves its first value."""
+    def median(col: str, default: float) -> float:
+        if col in measured and np.isfinite(measured[col]).any():
+            return float(np.nanmedian(measured[col]))
+        return default
+
+    L3 = measured["L3_mm"].to_numpy(float) if "L3_mm" in measured else np.full(t.size, np.nan)
+    guess = {"L1_mm": median("L1_mm", TABLE_2_2["L1"]), "L2_mm": median("L2_mm", TABLE_2_2["L2"]),
+             "L3_0_mm": float(np.nanmedian(L3[:5])) if np.isfinite(L3[:5]).any()
+             else TABLE_2_2["L3_0"], "speed_mm_s": TABLE_2_2["speed_mm_s"]}
+    guess.update({k: v for k, v in known.items() if k in guess})
+    th0 = np.median(theta[:5])
+    moved = np.flatnonzero(np.abs(theta - th0) > np.radians(0.5))
+    guess["start_s"] = float(t[moved[0]]) - 0.1 if moved.size else float(t[0])
+    stroke = guess["L3_0_mm"] - np.nanmin(L3) if np.isfinite(L3).any() else 10.0
+    guess["stroke_mm"] = float(max(stroke, 0.1))
+    guess.update(known)
+    return guess
+
+
+def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
+               model: str = "spool", context: dict[str, NDArray] | None = None,
+               candidates: dict[str, Candidate] | None = None) -> LoopResult:
+    """Fit the base model to measured θ(t), then add effects while the evidence says so.
+
+    Parameters
+    ----------
+    measured : DataFrame
+        A kinematics table: ``t_s``, ``theta_deg`` (per frame, not smoothed),
+        ``theta_deg_sigma``, ``L3_mm``; ``L1_mm``/``L2_mm`` seed the lengths.
+    known : dict
+        Values the user knows from the rig, held fixed (names of :data:`SPOOL_BASE`).
+    model : str
+        The base model; only ``"spool"`` so far.
+    context : dict, optional
+        Extra series, one value per row of ``measured``, to correlate the
+        residual with (e.g. ``"B image row"``).
+    candidates : dict, optional
+        The effect library (default :data:`CANDIDATES`).
+
+    Raises
+    ------
+    CranktrackError
+        Another model, too few frames, or known values no model can meet.
+    """
+    if model != "spool":
+        raise CranktrackError(f"the {model!r} model cannot be fitted yet; available: spool")
+    known = dict(known or {})
+    candidates = CANDIDATES if candidates is None else candidates
+    for col in ("t_s", "theta_deg"):
+        if col not in measured:
+            raise CranktrackError(f"the kinematics table has no {col} column")
+    t_all = measured["t_s"].to_numpy(float)
+    deg_all = measured["theta_deg"].to_numpy(float)
+    ok = np.isfinite(t_all) & np.isfinite(deg_all)
+    if ok.sum() < 12:
+        raise CranktrackError("fewer than 12 frames have a measured crank angle; too few to fit "
+                              "a model and judge its residual")
+    t, deg = t_all[ok], deg_all[ok]
+    theta = np.radians(deg)
+    ctx = {k: np.asarray(v, float)[ok] for k, v in (context or {}).items()}
+    messages = []
+    held = dict(known)
+    if "speed_mm_s" not in known and not {"L1_mm", "L2_mm", "L3_0_mm"} & set(known):
+        # θ(t) is unchanged when every length and the speed scale together: one
+        # length must be held, and the frame |AC| is measured directly.
+        if "L1_mm" not in measured:
+            raise CranktrackError("with the speed unknown, give --known L1_mm (one length "
+                                  "fixes the scale)")
+        held["L1_mm"] = float(np.nanmedian(measured["L1_mm"]))
+        messages.append(f"L1_mm held at the measured |AC| = {held['L1_mm']:.3f} mm: "
+                        "with the speed unknown, one length must fix the scale")
+    guess = _spool_guess(t, theta, measured, held)
+    span = float(t[-1] - t[0])
+    base_free = [replace(p, lower=t[0] - span, upper=t[-1]) if k == "start_s" else p
+                 for k, p in SPOOL_BASE.items() if k not in held]
+    sig = measured["theta_deg_sigma"].to_numpy(float)[ok] if "theta_deg_sigma" in measured \
+        else np.full(t.size, np.nan)
+    tracker_deg = float(np.nanmedian(sig)) if np.isfinite(sig).any() else 0.0
+    nyquist = 0.5 / float(np.median(np.diff(t)))
+
+    def fit_with(effects: tuple[str, ...], start_from: dict[str, float]) -> ModelFit | None:
+        free = list(base_free)
+        lists = []
+        for name in effects:
+            ps = [replace(p, upper=min(p.upper, 0.9 * nyquist)) if p.unit == "Hz" else p
+                  for p in candidates[name].parameters]
+            free += ps
+            have = [start_from.get(p.name) for p in ps]
+            lists.append([tuple(have)] if all(h is not None for h in have)
+                         else list(candidates[name].starts))
+        # Each effect's starting values in turn (the longest list sets how many).
+        width = max((len(x) for x in lists), default=1)
+        effect_starts = [sum((x[i % len(x)] for x in lists), ()) for i in range(width)]
+        # The base fit tries a few start times; an effect's fit starts where the base
+        # ended and from the data's own first guess (a base fit that bent its lengths
+        # to mimic an effect can sit in a valley the effect cannot leave).
+        shifts = (0.0,) if "start_s" in held or effects else (0.0, -0.05 * span, 0.05 * span)
+        origins = [start_from] if start_from is guess else [start_from, guess]
+        starts = [[o[p.name] + (sh if p.name == "start_s" else 0.0) for p in base_free]
+                  + list(es) for es in effect_starts for sh in shifts for o in origins]
+        return _fit(t, theta, spool_theta, held, free, starts, effects)
+
+    base = fit_with((), guess)
+    if base is None:
+        raise CranktrackError("no spool model with these known values reproduces the measured "
+                              "angles (the linkage would not close); check the --known values")
+    def separable(c: Candidate) -> bool:
+        return not c.needs_known or any(k in known for k in c.needs_known)
+
+    not_separable = [{"name": c.name, "needs": list(c.needs_known), "shows_as": c.shows_as,
+                      "why": f"without {' or '.join(c.needs_known)} known, {c.name} is the same "
+                             "as a change in the base model's own parameters"}
+                     for c in candidates.values() if not separable(c)]
+    tryable = [c for c in candidates.values() if separable(c)]
+    # The noise is judged on the richest model (every candidate at once): its
+    # residual is as close to the measurement error as the library can get, so a
+    # second effect still in the data does not pass for noise while the first is tried.
+    reference = fit_with(tuple(c.name for c in tryable), base.values) if tryable else None
+    ref = reference if reference is not None and reference.rss < base.rss else base
+    noise = NoiseModel.from_residual(ref.residual, len(ref.free), np.radians(tracker_deg),
+                                     "every candidate fitted at once" if ref is reference
+                                     else "the base model")
+    if "L2_mm" in measured:
+        # The crank |AB| is rigid, so its measured length is the tracker's error seen
+        # directly: how correlated that error is in time, free of any model. A rich
+        # reference model whitens its residual by absorbing some of the error, so the
+        # smaller of the two counts is the honest one.
+        link = measured["L2_mm"].to_numpy(float)[ok]
+        link = link[np.isfinite(link)]
+        if link.size >= 12:
+            noise = replace(noise, n_eff=min(noise.n_eff, effective_samples(link)),
+                            source=noise.source + "; correlation also from the |AB| link")
+    current, steps, scores, groups = base, [], [], []
+    for rnd in range(1, len(tryable) + 1):
+        if ljung_box_p(current.residual) >= WHITE_P:
+            break  # nothing structured left to explain
+        tried = []
+        for c in tryable:
+            if c.name in current.effects:
+                continue
+            alt = fit_with((*current.effects, c.name), current.values)
+            if alt is not None:
+                tried.append((_score(c, rnd, current, alt, noise, t, spool_theta, nyquist),
+                              alt))
+        if not tried:
+            break
+        tried.sort(key=lambda sa: -sa[0].delta_bic)
+        best, alt = tried[0]
+        if best.passes:
+            like = [s.name for s, _ in tried[1:]
+                    if best.delta_bic - s.delta_bic < LOOK_ALIKE_BIC and s.delta_bic > 0]
+            note = ""
+            if like:
+                note = f"fits as well as {', '.join(like)}"
+                groups.append({"effects": [best.name, *like], "round": rnd,
+                               "separated_by": candidates[best.name].separated_by
+                               or "a known value or a measurement only one of them changes"})
+            tried[0] = (replace(best, accepted=True, note=note), alt)
+        scores += [s if s.accepted or s.note else replace(s, note=s.why_not()) for s, _ in tried]
+        if not best.passes:
+            break
+        current = alt
+        steps.append(alt)
+    before = diagnose(base, deg, t, ctx)
+    after = diagnose(current, deg, t, ctx)
+    return LoopResult(model, known, base, current, steps, scores, not_separable, groups,
+                      before, after, noise, tracker_deg, messages)

@@ -1,0 +1,135 @@
+"""``RUN/fit/``: the closed loop's report — before and after, every candidate, the plots."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+
+from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic, write_text_atomic
+from cranktrack.kinematics.discrepancy import BIC_THRESHOLD, CANDIDATES, LoopResult
+
+
+def fit_table(result: LoopResult, t_s: np.ndarray) -> pd.DataFrame:
+    """Measured θ, the base and final models and both residuals, deg, per fitted frame."""
+    base, final = result.base, result.final
+    measured = np.degrees(base.model + base.residual)
+    return pd.DataFrame({
+        "t_s": t_s, "theta_deg_measured": measured,
+        "theta_deg_base": np.degrees(base.model), "theta_deg_final": np.degrees(final.model),
+        "residual_before_deg": np.degrees(base.residual),
+        "residual_after_deg": np.degrees(final.residual)})
+
+
+def plot_residuals(table: pd.DataFrame, result: LoopResult, path: Path) -> Path:
+    """θ with both models, and the residual before and after the accepted effects."""
+    fig, axes = plt.subplots(3, 1, figsize=(7.5, 7.5), sharex=True)
+    t = table["t_s"]
+    ax = axes[0]
+    ax.plot(t, table["theta_deg_measured"], ".", ms=3, color="tab:blue", label="measured")
+    ax.plot(t, table["theta_deg_base"], "-", lw=1, color="tab:red", label="base model")
+    if result.effects:
+        ax.plot(t, table["theta_deg_final"], "--", lw=1, color="tab:green",
+                label="with " + ", ".join(result.effects))
+    ax.set_ylabel("θ (deg)")
+    ax.legend(fontsize=8)
+    sigma = result.noise.sigma_deg
+    for ax, col, title in ((axes[1], "residual_before_deg", "before"),
+                           (axes[2], "residual_after_deg", "after")):
+        ax.axhspan(-sigma, sigma, color="0.85", lw=0, label="±1σ noise")
+        ax.plot(t, table[col], ".-", ms=3, lw=0.6, color="tab:purple")
+        rms = float(np.sqrt(np.mean(table[col] ** 2)))
+        ax.set_ylabel(f"residual {title} (deg)")
+        ax.set_title(f"residual {title}: RMS {rms:.4g}°", fontsize=9)
+    axes[1].legend(fontsize=8, loc="upper right")
+    axes[-1].set_xlabel("t (s)")
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def report_markdown(report: dict) -> str:
+    """The report as Markdown: before/after, accepted effects, every candidate."""
+    lines = [f"# Closing the loop: {report['model']} model", ""]
+    effects = report["effects"]
+    lines.append("Accepted effects, in order: " + (", ".join(f"`{e}`" for e in effects)
+                                                   if effects else "none") + ".")
+    lines += ["", "| | RMSE (deg) | max (deg) | fit % | residual white |", "|---|---|---|---|---|",
+              f"| before (base model) | {report['rmse_before_deg']:.4g} | "
+              f"{report['max_before_deg']:.4g} | {report['fit_percent_before']:.3f} | "
+              f"{report['residual_white_before']} |",
+              f"| after | {report['rmse_after_deg']:.4g} | {report['max_after_deg']:.4g} | "
+              f"{report['fit_percent_after']:.3f} | {report['residual_white_after']} |", ""]
+    n = report["noise"]
+    lines.append(f"Noise the fits are judged against: σ = {n['sigma_deg']:.4g}° per frame, "
+                 f"{n['effective_frames']:.1f} independent frames of {n['frames']} "
+                 f"({n['source']}); the tracker's own σ is "
+                 f"{report['tracker_sigma_deg']:.4g}°.")
+    lines += ["", "## Parameters", "", "| parameter | value | 1σ | 95 % interval | |",
+              "|---|---|---|---|---|"]
+    for k, v in report["parameters"].items():
+        if v["fixed"]:
+            lines.append(f"| {k} | {v['value']:.6g} {v['unit']} | | | known |")
+        else:
+            lo, hi = v["ci95"]
+            lines.append(f"| {k} | {v['value']:.6g} {v['unit']} | {v['sigma']:.3g} | "
+                         f"[{lo:.5g}, {hi:.5g}] | fitted |")
+    lines += ["", "## Candidates", "",
+              f"Accepted only with ΔBIC > {BIC_THRESHOLD:g}, a 95 % interval that excludes "
+              "no effect, a plausible value and an imprint on θ above 3σ of the noise.", "",
+              "| round | effect | ΔBIC | RMSE after (deg) | imprint (deg) | value | accepted | "
+              "note |", "|---|---|---|---|---|---|---|---|"]
+    for c in report["candidates"]:
+        vals = ", ".join(f"{k} = {p['value']:.4g} ± {p['sigma']:.2g}"
+                         for k, p in c["parameters"].items())
+        lines.append(f"| {c['round']} | {c['name']} | {c['delta_bic']:.1f} | "
+                     f"{c['rmse_deg']:.4g} | {c['imprint_deg']:.3g} | {vals} | "
+                     f"{'yes' if c['accepted'] else 'no'} | {c['note']} |")
+    if report["look_alike_groups"]:
+        lines += ["", "## Effects that look alike", ""]
+        for g in report["look_alike_groups"]:
+            lines.append(f"- {', '.join(g['effects'])} explain the residual equally well; "
+                         f"to tell them apart: {g['separated_by']}.")
+    if report["not_separable"]:
+        lines += ["", "## Not tried: not separable with what is known", ""]
+        for s in report["not_separable"]:
+            lines.append(f"- `{s['name']}` needs {' or '.join(s['needs'])} (`--known`): "
+                         f"{s['why']}.")
+    lines += ["", "## What the residual correlates with", "", "| | before | after |",
+              "|---|---|---|"]
+    before, after = report["diagnosis_before"], report["diagnosis_after"]
+    for k in before["correlations"]:
+        a = after["correlations"].get(k)
+        lines.append(f"| {k} | {before['correlations'][k]:+.2f} | "
+                     f"{'' if a is None else f'{a:+.2f}'} |")
+    for name in ("before", "moving", "after"):
+        b, a = before["phases"].get(name), after["phases"].get(name)
+        if b and a:
+            lines.append(f"| RMSE {name} the drive (deg) | {b['rmse_deg']:.4g} | "
+                         f"{a['rmse_deg']:.4g} |")
+    if report["unexplained"]:
+        lines += ["", f"**Unexplained:** {report['unexplained']}."]
+    for m in report["messages"]:
+        lines += ["", f"Note: {m}."]
+    lines += ["", "![residuals](residuals.png)", ""]
+    return "\n".join(lines)
+
+
+def write_fit_report(folder: Path, result: LoopResult, t_s: np.ndarray) -> list[Path]:
+    """Write ``report.json``, ``report.md``, ``fit.csv`` and ``residuals.png`` in ``folder``."""
+    folder = ensure_dir(Path(folder))
+    report = result.to_dict()
+    report["effect_docs"] = {name: CANDIDATES[name].shows_as for name in result.effects
+                             if name in CANDIDATES}
+    table = fit_table(result, t_s)
+    return [write_json_atomic(folder / "report.json", report),
+            write_csv_atomic(folder / "fit.csv", table),
+            plot_residuals(table, result, folder / "residuals.png"),
+            write_text_atomic(folder / "report.md", report_markdown(report))]

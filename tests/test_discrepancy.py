@@ -1,0 +1,198 @@
+"""Closing the loop: the effect that is in the data is found, named and measured; nothing
+is found where there is nothing.
+
+Two kinds of data: θ(t) series made by the model itself plus white noise (fast, many
+seeds, parameters known exactly), and tracked renders with an undeclared effect, whose
+ground truth (``truth.csv``) sets the noise floor the fit must come down to.
+"""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from cranktrack.cli import main
+from cranktrack.errors import CranktrackError
+from cranktrack.kinematics.discrepancy import close_loop, parse_known, spool_theta
+
+T = np.arange(75) / 30.0
+TRUE = {"start_s": 0.5, "stroke_mm": 15.0, "L1_mm": 160.8, "L2_mm": 72.4, "L3_0_mm": 105.4,
+        "speed_mm_s": 14.0}
+KNOWN = {k: TRUE[k] for k in ("start_s", "stroke_mm", "L1_mm", "L2_mm", "speed_mm_s")}
+
+
+def series(effect: dict | None = None, seed: int = 0, sigma: float = 0.02,
+           add: np.ndarray | None = None) -> pd.DataFrame:
+    """A kinematics table whose θ is the model's, with white noise of σ degrees."""
+    rng = np.random.default_rng(seed)
+    theta = np.degrees(spool_theta({**TRUE, **(effect or {})}, T)) + rng.normal(0, sigma, T.size)
+    if add is not None:
+        theta = theta + add
+    return pd.DataFrame({"frame": np.arange(T.size), "t_s": T, "theta_deg": theta,
+                         "theta_deg_sigma": sigma, "L3_mm": np.nan,
+                         "L1_mm": 160.8 + rng.normal(0, 0.02, T.size),
+                         "L2_mm": 72.4 + rng.normal(0, 0.02, T.size)})
+
+
+def recovered(report: dict, name: str, truth: float, off: float = 0.0) -> None:
+    """Within 20 % of the effect's size and within 3σ (the fit's own interval)."""
+    p = report["parameters"][name]
+    assert abs(p["value"] - truth) <= 0.2 * abs(truth - off), (name, p, truth)
+    assert abs(p["value"] - truth) <= 3 * p["sigma"], (name, p, truth)
+
+
+@pytest.mark.parametrize("effect, first", [
+    ({"slack_mm": 1.0}, "slack_mm"),
+    ({"time_offset_s": 0.05}, "time_offset_s"),
+    ({"spool_growth_per_s": 0.1}, "spool_growth_per_s"),
+    ({"return_spring_hz": 3.0, "return_spring_zeta": 0.1}, "return_spring_hz"),
+    ({"clock_scale": 1.03}, "clock_scale"),
+])
+def test_each_effect_in_the_library_is_named_and_measured(effect, first):
+    report = close_loop(series(effect), KNOWN).to_dict()
+    assert report["effects"] == [first]
+    off = 1.0 if first == "clock_scale" else 0.0
+    for name, value in effect.items():
+        recovered(report, name, value, off)
+    assert report["rmse_after_deg"] < 1.5 * 0.02  # down to the noise
+    assert report["rmse_before_deg"] > 3 * report["rmse_after_deg"]
+    assert report["fit_percent_after"] > report["fit_percent_before"]
+
+
+def test_white_noise_alone_is_explained_by_nothing():
+    found = [close_loop(series(seed=s), KNOWN).effects for s in range(8)]
+    assert found == [[]] * 8
+
+
+def test_an_effect_that_needs_a_known_value_is_not_tried_without_it():
+    known = {k: v for k, v in KNOWN.items() if k not in ("start_s", "stroke_mm")}
+    report = close_loop(series({"slack_mm": 1.0}), known).to_dict()
+    # Slack is a later start and a shorter stroke unless one of them is known: the base
+    # model absorbs it, and the report says what would have separated it.
+    assert report["effects"] == []
+    needs = {n["name"]: n["needs"] for n in report["not_separable"]}
+    assert needs["slack_mm"] == ["start_s", "stroke_mm"]
+    assert needs["time_offset_s"] == ["start_s"]
+    assert report["rmse_before_deg"] < 1.5 * 0.02
+    # Knowing the stroke alone is enough: slack then also shrinks the rocking angle.
+    known["stroke_mm"] = KNOWN["stroke_mm"]
+    report = close_loop(series({"slack_mm": 1.0}), known).to_dict()
+    assert report["effects"] == ["slack_mm"]
+    recovered(report, "slack_mm", 1.0)
+
+
+def test_look_alikes_are_reported_as_a_group_with_the_experiment_that_separates_them():
+    known = {k: v for k, v in KNOWN.items() if k != "stroke_mm"}
+    report = close_loop(series({"slack_mm": 1.0}), known).to_dict()
+    # With the stroke free, slack ≡ a clock offset: same delay, stroke absorbs the rest.
+    assert report["effects"][0] in ("slack_mm", "time_offset_s")
+    group = report["look_alike_groups"][0]
+    assert set(group["effects"]) == {"slack_mm", "time_offset_s"}
+    assert "stroke" in group["separated_by"]
+
+
+def test_structure_no_candidate_matches_is_reported_not_forced():
+    wobble = 0.3 * np.sin(2 * np.pi * 0.7 * T)  # nothing in the library makes this
+    report = close_loop(series(add=wobble), KNOWN).to_dict()
+    assert report["effects"] == []
+    assert report["unexplained"] and "correlates most with" in report["unexplained"]
+    assert not report["residual_white_after"]
+
+
+def test_two_effects_at_once_are_both_found():
+    report = close_loop(series({"slack_mm": 1.0, "return_spring_hz": 3.0}), KNOWN).to_dict()
+    assert sorted(report["effects"]) == ["return_spring_hz", "slack_mm"]
+    recovered(report, "slack_mm", 1.0)
+    recovered(report, "return_spring_hz", 3.0)
+
+
+def test_known_values_are_checked():
+    assert parse_known(["L1_mm=160.8", "start_s=0.5"]) == {"L1_mm": 160.8, "start_s": 0.5}
+    for bad in (["L1=160"], ["start_s"], ["start_s=soon"], ["start_s=nan"]):
+        with pytest.raises(CranktrackError):
+            parse_known(bad)
+    with pytest.raises(CranktrackError, match="cannot be fitted yet"):
+        parse_known([], "sma")
+    with pytest.raises(CranktrackError, match="fewer than 12"):
+        close_loop(series().iloc[:8], KNOWN)
+
+
+# Tracked renders with an effect that scene.json does not declare.
+
+RENDER = ["--size", "480x270", "--seconds", "2.5", "--fps", "30"]
+
+
+@pytest.fixture(scope="module")
+def rendered(tmp_path_factory):
+    root = tmp_path_factory.mktemp("undeclared")
+    made = {}
+
+    def make(name: str, effects: tuple[str, ...] = (), seed: int = 0):
+        if name not in made:
+            scene, run = root / name / "scene", root / name / "run"
+            args = ["synth", "spool", "--out", str(scene), *RENDER, "--seed", str(seed)]
+            for e in effects:
+                args += ["--effect", e]
+            assert main(args) == 0
+            assert main(["track", str(scene / "video.mp4"), "--out", str(run),
+                         "--known-length", "A-C=160.8"]) == 0
+            declared = json.loads((scene / "scene.json").read_text())["effects"]
+            assert declared == ("not declared" if effects else {})
+            made[name] = (scene, run)
+        return made[name]
+    return make
+
+
+def floor_deg(scene, run) -> float:
+    """The render's noise floor: RMS of the tracked θ against the truth."""
+    truth = pd.read_csv(scene / "truth.csv")
+    measured = pd.read_csv(run / "kinematics.csv")
+    return float(np.sqrt(np.mean((measured["theta_deg"] - truth["theta_deg"]) ** 2)))
+
+
+def fit(run, known: dict) -> dict:
+    args = ["fit", str(run)]
+    for k, v in known.items():
+        args += ["--known", f"{k}={v}"]
+    assert main(args) == 0
+    return json.loads((run / "fit" / "report.json").read_text())
+
+
+@pytest.mark.parametrize("effects, named, truth", [
+    (("slack_mm=1",), ["slack_mm"], {"slack_mm": 1.0}),
+    (("spool_growth_per_s=0.1",), ["spool_growth_per_s"], {"spool_growth_per_s": 0.1}),
+    (("return_spring_hz=3",), ["return_spring_hz"], {"return_spring_hz": 3.0}),
+    (("slack_mm=1", "return_spring_hz=3"), ["slack_mm", "return_spring_hz"],
+     {"slack_mm": 1.0, "return_spring_hz": 3.0}),
+])
+def test_an_undeclared_effect_in_a_tracked_render_is_found(rendered, effects, named, truth):
+    scene, run = rendered("-".join(effects), effects)
+    report = fit(run, KNOWN)
+    assert report["effects"][0] == named[0]
+    assert sorted(report["effects"]) == sorted(named)
+    for name, value in truth.items():
+        recovered(report, name, value)
+    assert report["rmse_after_deg"] <= 1.5 * floor_deg(scene, run)
+    assert (run / "fit" / "residuals.png").stat().st_size > 10_000
+    assert "Closing the loop" in (run / "report.md").read_text()
+
+
+def test_a_wrong_frame_rate_label_is_found_as_a_clock_error(rendered):
+    scene, run = rendered("fps", ("fps_label=31",))
+    # The user reads the drive's start off the video, so on its (wrong) clock.
+    known = {**KNOWN, "start_s": 0.5 * 30 / 31}
+    report = fit(run, known)
+    assert report["effects"] == ["clock_scale"]
+    recovered(report, "clock_scale", 31 / 30, off=1.0)
+    assert report["rmse_after_deg"] <= 1.5 * floor_deg(scene, run)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_tracked_render_without_effects_gets_none(rendered, seed):
+    scene, run = rendered(f"null{seed}", seed=seed)
+    for known in (KNOWN, {k: KNOWN[k] for k in ("L1_mm", "L2_mm", "speed_mm_s", "start_s")},
+                  {}):
+        report = fit(run, known)
+        assert report["effects"] == [], (known, report["candidates"])
+        assert report["rmse_after_deg"] <= 1.5 * floor_deg(scene, run)
