@@ -305,5 +305,6 @@ def record_run(run: Path, spawn: bool = False, path: Path | None = None) -> Path
         cal = load_calibration(run / "calibration.json")
         model_px = np.stack(cal.to_image(drive.L2 * np.cos(theta),
                                          side * drive.L2 * np.sin(theta)), axis=1)
+    fit = pd.read_csv(run / "fit" / "fit.csv") if (run / "fit" / "fit.csv").exists() else None
     return write_recording(path or run / "run.rrd", video, tracks, kin, comparison, model_px,
-                           spawn=spawn)
+                           spawn=spawn, fit=fit)

@@ -9,7 +9,10 @@ Layout of the entities (timeline ``time``: the video's presentation time, s):
 - ``video/links/{AB,AC,BC}``: the crank, the frame and the wire;
 - ``video/model/B``: where the fitted model puts B, in another colour;
 - ``plots/<quantity>/{measured,model}`` and ``plots/residual/theta``:
-  θ, ω, |v_B| measured and modelled, and the residual θ − θ_model.
+  θ, ω, |v_B| measured and modelled, and the residual θ − θ_model;
+- after ``cranktrack fit``: ``plots/theta/fitted`` (the model with the
+  accepted effects) and ``plots/residual/{before,after}`` (θ residual of the
+  base model and of the model with the effects).
 
 A blueprint lays it out with the video on the left and the plots on the right.
 """
@@ -65,6 +68,7 @@ def write_recording(
     comparison: pd.DataFrame | None = None,
     model_B_px: np.ndarray | None = None,
     spawn: bool = False,
+    fit: pd.DataFrame | None = None,
 ) -> Path:
     """Write (and with ``spawn``, also show) the recording of a run.
 
@@ -80,6 +84,10 @@ def write_recording(
         ``compare.csv``'s table (measured and model side by side).
     model_B_px : ndarray (n, 2), optional
         The model's B in image pixels, row-aligned with ``tracks``.
+    spawn : bool
+        Also open a live viewer.
+    fit : DataFrame, optional
+        ``fit/fit.csv`` of ``cranktrack fit`` (residuals before and after).
     """
     out = Path(path)
     rec = rr.RecordingStream("cranktrack", recording_id=out.stem)
@@ -124,6 +132,12 @@ def write_recording(
         for key, col, _ in PLOTS:
             _scalars(rec, f"plots/{key}/model", tc, comparison[f"{col}_model"].to_numpy(float))
         _scalars(rec, "plots/residual/theta", tc, comparison["theta_deg_error"].to_numpy(float))
+    if fit is not None:
+        tf = fit["t_s"].to_numpy(float)
+        _scalars(rec, "plots/theta/fitted", tf, fit["theta_deg_final"].to_numpy(float))
+        for when in ("before", "after"):
+            _scalars(rec, f"plots/residual/{when}", tf,
+                     fit[f"residual_{when}_deg"].to_numpy(float))
     rec.flush()
     rec.disconnect()
     return out

@@ -53,6 +53,19 @@ def test_view_after_compare_overlays_the_model(run):
     assert (run / "kinematics.png").exists()
 
 
+def test_fit_with_rerun_records_the_residual_before_and_after(run, tmp_path):
+    rrd = tmp_path / "fit.rrd"
+    assert main(["fit", str(run), "--known", "L1_mm=160.8", "--known", "L2_mm=72.4",
+                 "--known", "speed_mm_s=14", "--rerun", str(rrd)]) == 0
+    fitted = pd.read_csv(run / "fit" / "fit.csv")
+    entities = read_entities(rrd)
+    for path in ("/plots/residual/before", "/plots/residual/after", "/plots/theta/fitted"):
+        assert entities[path]["rows"] == len(fitted)
+    np.testing.assert_allclose(read_times(rrd, "/plots/residual/after"), fitted["t_s"],
+                               atol=1e-6)
+    assert "## Closing the loop" in (run / "report.md").read_text()
+
+
 def test_view_of_a_folder_that_is_not_a_run(tmp_path, capsys):
     assert main(["view", str(tmp_path)]) == 1
     assert "no tracks.csv" in capsys.readouterr().err
