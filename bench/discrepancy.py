@@ -57,8 +57,9 @@ def tracked(name: str, effects: dict[str, float], seed: int, noise: float) -> Pa
     return run
 
 
-def loop(run: Path, effect: str | None, value: float | None) -> dict:
-    known = dict(KNOWN)
+def loop(run: Path, effect: str | None, value: float | None, known: dict | None = None
+         ) -> dict:
+    known = dict(KNOWN if known is None else known)
     if effect == "fps_label":  # the start is read off the video, on its (wrong) clock
         known["start_s"] = KNOWN["start_s"] * FPS / value
     measured = pd.read_csv(run / "kinematics.csv")
@@ -104,6 +105,13 @@ def main_bench() -> None:
     null = table[table["truth"] == "none"]
     print(f"\nnull renders: {int((null['first'] != 'none').sum())} of {len(null)} with a false "
           f"discovery ({100 * (null['first'] == 'none').mean():.0f} % accept nothing)")
+    lesser = {"no stroke": {k: v for k, v in KNOWN.items() if k != "stroke_mm"},
+              "nothing": {}}
+    for label, known in lesser.items():
+        false = sum(bool(loop(tracked(f"null_n{noise:g}_s{seed}", {}, seed, noise), None, None,
+                              known)["effects"])
+                    for noise in (2.5, 8.0) for seed in range(args.seeds))
+        print(f"  with {label} known: {false} of {2 * args.seeds} with a false discovery")
     eff = table[table["truth"] != "none"]
     print("\nEffects: named first, recovery and RMSE after vs the render's noise floor")
     cols = ["truth", "size", "noise", "first", "all", "z", "rel_err", "rmse_after", "floor"]
