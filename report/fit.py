@@ -75,11 +75,12 @@ def report_markdown(report: dict) -> str:
     lines += ["", "## Parameters", "", "| parameter | value | 1σ | 95 % interval | |",
               "|---|---|---|---|---|"]
     for k, v in report["parameters"].items():
+        unit = "" if v["unit"] == "1" else f" {v['unit']}"
         if v["fixed"]:
-            lines.append(f"| {k} | {v['value']:.6g} {v['unit']} | | | known |")
+            lines.append(f"| {k} | {v['value']:.6g}{unit} | | | known |")
         else:
             lo, hi = v["ci95"]
-            lines.append(f"| {k} | {v['value']:.6g} {v['unit']} | {v['sigma']:.3g} | "
+            lines.append(f"| {k} | {v['value']:.6g}{unit} | {v['sigma']:.3g} | "
                          f"[{lo:.5g}, {hi:.5g}] | fitted |")
     lines += ["", "## Candidates", "",
               f"Accepted only with ΔBIC > {BIC_THRESHOLD:g}, a 95 % interval that excludes "
@@ -109,11 +110,12 @@ def report_markdown(report: dict) -> str:
         a = after["correlations"].get(k)
         lines.append(f"| {k} | {before['correlations'][k]:+.2f} | "
                      f"{'' if a is None else f'{a:+.2f}'} |")
-    for name in ("before", "moving", "after"):
+    phases = {"before": "before the crank moves", "moving": "while it moves",
+              "after": "after it stops"}
+    for name, label in phases.items():
         b, a = before["phases"].get(name), after["phases"].get(name)
         if b and a:
-            lines.append(f"| RMSE {name} the drive (deg) | {b['rmse_deg']:.4g} | "
-                         f"{a['rmse_deg']:.4g} |")
+            lines.append(f"| RMSE {label} (deg) | {b['rmse_deg']:.4g} | {a['rmse_deg']:.4g} |")
     if report["unexplained"]:
         lines += ["", f"**Unexplained:** {report['unexplained']}."]
     for m in report["messages"]:
