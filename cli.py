@@ -135,8 +135,59 @@ def _camera(args: argparse.Namespace, scenario, pinhole: bool = False):
 def cmd_synth(args: argparse.Namespace) -> int:
     if args.scenario == "board":
         return _synth_board(args)
+    if args.scenario == "thermal":
+        return _synth_thermal(args)
     files = _render(args, Path(args.out))
     print(f"wrote {files.video}, {files.truth.name} and {files.scene.name}")
+    return 0
+
+
+def _synth_thermal(args: argparse.Namespace) -> int:
+    from dataclasses import asdict
+
+    from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic
+    from cranktrack.kinematics.heat import SMAWire
+    from cranktrack.synthetic.thermal_log import Instruments, standard_experiments, thermal_log
+
+    out = ensure_dir(Path(args.out))
+    wire = SMAWire()
+    ins = Instruments(thermocouple_tau_s=args.thermocouple_tau_s,
+                      thermocouple_hz=args.thermocouple_hz, noise_C=0.1, noise_V=0.002,
+                      noise_A=0.001, noise_mm=0.001)
+    log = thermal_log(wire, standard_experiments(), ins, seed=args.seed)
+    a = write_csv_atomic(out / "thermal_log.csv", log)
+    b = write_json_atomic(out / "truth.json", {"wire": asdict(wire), "instruments": asdict(ins)})
+    print(f"wrote {a} ({len(log)} rows: a V–I sweep, four c_p steps and a Δh step) and {b.name}")
+    return 0
+
+
+def cmd_thermal_id(args: argparse.Namespace) -> int:
+    from cranktrack.kinematics.heat import SMAWire
+    from cranktrack.kinematics.thermal_id import identify, read_log
+
+    wire = SMAWire(diameter_m=args.diameter_um * 1e-6, length_m=args.length_mm * 1e-3,
+                   density_kg_m3=args.density, As_C=args.As, Af_C=args.Af)
+    result = identify(read_log(args.log), wire, args.ambient)
+    rows = [["parameter", "value", "1σ", "n", "unit"]]
+    labels = {"R_ohm": "R (V–I slope)", "h_W_m2K": "h (steady states, eq. 4.26)",
+              "cp_integral": "c_p, integral (eq. 4.19)",
+              "cp_derivative": "c_p, derivative (eq. 4.20)", "dh": "Δh (eq. 4.25)",
+              "cp_integral_thermocouple": "c_p, integral, timed by thermocouple",
+              "dh_thermocouple": "Δh, timed by thermocouple"}
+    for key, label in labels.items():
+        e = getattr(result, key)
+        rows.append([label, f"{e.value:.5g}", "–" if not np.isfinite(e.sigma) else
+                     f"{e.sigma:.2g}", str(e.n), e.unit])
+    print(f"ambient {result.T_amb_C:.2f} °C; wire d {args.diameter_um:g} µm, "
+          f"L {args.length_mm:g} mm, A_s {args.As:g} °C, A_f {args.Af:g} °C")
+    print(_format_table(rows))
+    print("n: steady stretches for R and h, step tests for c_p and Δh (1σ is their spread, – "
+          "for a single test). c_p and Δh are timed by the displacement (contraction start/end, "
+          "thesis Fig. 4.13); the thermocouple rows show what the thermocouple's lag does.")
+    if args.out:
+        from cranktrack.files import write_json_atomic
+
+        print(f"wrote {write_json_atomic(Path(args.out), result.to_dict())}")
     return 0
 
 
@@ -527,10 +578,11 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("synth", help="render a synthetic scene with its ground truth")
-    p.add_argument("scenario", choices=["spool", "free", "board"],
+    p.add_argument("scenario", choices=["spool", "free", "board", "thermal"],
                    help="spool: the Table 2.2 test bed; free: the damped free response of "
                         "chapter 3 in the same geometry; board: calibration photos of the "
-                        "same synthetic camera")
+                        "same synthetic camera; thermal: a wire test-bed log for thermal-id "
+                        "(thesis Tables 4.2/4.4 constants)")
     p.add_argument("--effect", action="append", metavar="NAME=VALUE",
                    help="switch on an effect the models lack (repeatable): slack_mm, "
                         "spool_growth_per_s, return_spring_hz, return_spring_zeta, "
@@ -549,7 +601,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--square-mm", type=_positive, default=14.0,
                    help="(board) its square side, mm (14)")
     p.add_argument("--views", type=int, default=15, help="(board) camera photos (15)")
+    p.add_argument("--thermocouple-tau-s", type=_non_negative, default=0.0,
+                   help="(thermal) first-order lag of the thermocouple, s (0)")
+    p.add_argument("--thermocouple-hz", type=_positive, default=200.0,
+                   help="(thermal) thermocouple reading rate, Hz (200; the thesis's was 2)")
     p.set_defaults(func=cmd_synth)
+
+    p = sub.add_parser("thermal-id", help="identify R, h, c_p and Δh of an SMA wire from a "
+                       "test-bed log (thesis §4.4)")
+    p.add_argument("log", help="CSV with t_s, voltage_V, current_A, temperature_C, "
+                   "displacement_mm")
+    p.add_argument("--diameter-um", type=_positive, default=250.0, help="wire diameter (250)")
+    p.add_argument("--length-mm", type=_positive, default=115.0, help="wire length (115)")
+    p.add_argument("--density", type=_positive, default=6450.0, help="kg/m³ (6450)")
+    p.add_argument("--As", type=float, default=55.0, help="austenite start, °C (55)")
+    p.add_argument("--Af", type=float, default=70.0, help="austenite finish, °C (70)")
+    p.add_argument("--ambient", type=float, default=None,
+                   help="ambient °C (default: the steady temperature at zero current)")
+    p.add_argument("--out", help="also write the result as JSON here")
+    p.set_defaults(func=cmd_thermal_id)
 
     p = sub.add_parser("track", help="track a video into a run folder")
     p.add_argument("video", help="video file, or a folder of numbered images")
