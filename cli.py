@@ -95,11 +95,14 @@ def _render_settings(args: argparse.Namespace):
 
 def _spool_scenario(args: argparse.Namespace):
     from cranktrack.kinematics.spool import SpoolDrive
-    from cranktrack.synthetic.scenarios import FreeScenario, SpoolScenario
+    from cranktrack.synthetic.scenarios import FreeScenario, SMAScenario, SpoolScenario
 
     if getattr(args, "scenario", "spool") == "free":
         return FreeScenario(theta_init_deg=args.theta_init_deg,
                             omega_init_rad_s=args.omega_init_rad_s)
+    if getattr(args, "scenario", "spool") == "sma":
+        return SMAScenario(current_A=args.current_A, on_s=args.current_on_s,
+                           off_s=args.current_off_s)
     return SpoolScenario(SpoolDrive(start_s=args.start_s, stroke_mm=args.stroke_mm,
                                     speed_mm_s=args.speed_mm_s))
 
@@ -578,9 +581,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("synth", help="render a synthetic scene with its ground truth")
-    p.add_argument("scenario", choices=["spool", "free", "board", "thermal"],
+    p.add_argument("scenario", choices=["spool", "free", "sma", "board", "thermal"],
                    help="spool: the Table 2.2 test bed; free: the damped free response of "
-                        "chapter 3 in the same geometry; board: calibration photos of the "
+                        "chapter 3 in the same geometry; sma: the SMA-actuated bed of Table "
+                        "2.3 heated by a current step; board: calibration photos of the "
                         "same synthetic camera; thermal: a wire test-bed log for thermal-id "
                         "(thesis Tables 4.2/4.4 constants)")
     p.add_argument("--effect", action="append", metavar="NAME=VALUE",
@@ -593,6 +597,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="(free) release angle, degrees (70; the bias spring rests at 90)")
     p.add_argument("--omega-init-rad-s", type=float, default=0.0,
                    help="(free) release angular velocity, rad/s (0)")
+    p.add_argument("--current-A", type=_non_negative, default=1.3,
+                   help="(sma) heating current, A (1.3, thesis Fig. 4.5)")
+    p.add_argument("--current-on-s", type=_non_negative, default=0.5,
+                   help="(sma) when the current is switched on, s (0.5)")
+    p.add_argument("--current-off-s", type=_positive, default=3.0,
+                   help="(sma) when it is switched off, s (3.0)")
     p.add_argument("--out", required=True, help="output folder")
     _add_render_options(p, seconds=5.0)
     _add_scene_options(p)

@@ -9,13 +9,17 @@ a :class:`Motion`.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
+from functools import lru_cache
 from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.interpolate import CubicHermiteSpline
 
 from cranktrack.kinematics.crank_slider import crank_state, l3_from_theta
 from cranktrack.kinematics.dynamics import CrankDynamics
+from cranktrack.kinematics.heat import CurrentSteps
+from cranktrack.kinematics.sma_bed import SMABed, simulate_bed
 from cranktrack.kinematics.spool import SpoolDrive
 
 
@@ -139,3 +143,52 @@ class FreeScenario:
         return {"name": self.name, **asdict(self.dynamics),
                 "L3_0": self.dynamics.L3_0, "stiffness_ratio": self.dynamics.stiffness_ratio,
                 "theta_init_deg": self.theta_init_deg, "omega_init_rad_s": self.omega_init_rad_s}
+
+
+@dataclass(frozen=True)
+class SMAScenario:
+    """The SMA-actuated bed of thesis §2.5.3 (Table 2.3): a current step heats the
+    wire, it contracts and pulls the crank from θ0 = 125° to about 98°, then the
+    current stops, the wire cools and the bias spring brings the crank back
+    (:mod:`cranktrack.kinematics.sma_bed`)."""
+
+    bed: SMABed = field(default_factory=SMABed)
+    current_A: float = 1.3
+    on_s: float = 0.5
+    off_s: float = 3.0
+    name: str = "sma"
+
+    @property
+    def current(self) -> CurrentSteps:
+        return CurrentSteps((self.on_s, self.off_s), (self.current_A, 0.0))
+
+    def motion(self, t_s: ArrayLike) -> Motion:
+        """Motion at times ``t_s`` (s, from 0), from one dense solution per clip (the
+        renderer asks frame by frame): cubic Hermite in θ with ω as its slope, and in ω
+        with α as its slope, on a 1 ms grid."""
+        t = np.asarray(t_s, dtype=float)
+        # One dense integration to the next whole 10 s covers every frame asked for.
+        t_end = 10.0 * np.ceil(max(float(t.max()), 1e-9) / 10.0)
+        theta_of, omega_of = _sma_solution(self.bed, self.current, t_end)
+        theta, omega = theta_of(t), omega_of(t)
+        return motion_from_angle(t, theta, omega, omega_of(t, 1), self.bed.L1, self.bed.L2)
+
+    def extent_mm(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The crank's whole circle and the frame."""
+        b = self.bed
+        return np.array([-b.L2, -b.L2]), np.array([b.L1, b.L2])
+
+    def to_dict(self) -> dict:
+        b = self.bed
+        return {"name": self.name, "current_A": self.current_A, "on_s": self.on_s,
+                "off_s": self.off_s, **{k: v for k, v in asdict(b).items() if k != "thermal"},
+                "thermal": asdict(b.thermal), "L3_0": b.L3_0,
+                "wire_R_ohm": b.wire.R_ohm, "bias_rest_deg": float(np.degrees(b.bias_rest_rad))}
+
+
+@lru_cache(maxsize=8)
+def _sma_solution(bed: SMABed, current: CurrentSteps, t_end: float
+                  ) -> tuple[CubicHermiteSpline, CubicHermiteSpline]:
+    grid = np.arange(0.0, t_end + 1e-3, 1e-3)
+    m = simulate_bed(bed, current, grid)
+    return CubicHermiteSpline(grid, m.theta, m.omega), CubicHermiteSpline(grid, m.omega, m.alpha)
