@@ -394,7 +394,9 @@ def cmd_fit(args: argparse.Namespace) -> int:
     result, files = fit_run(Path(args.run), args.model, known)
     _print_fit(result.to_dict())
     if args.rerun:
-        files.append(_record(Path(args.run), spawn=False, path=Path(args.rerun)))
+        spawn = args.rerun == "spawn"
+        target = None if spawn or args.rerun == "RUN/run.rrd" else Path(args.rerun)
+        files.append(_record(Path(args.run), spawn=spawn, path=target))
     print(f"wrote {', '.join(f.name for f in files)} in {args.run} (fit/ for the loop's files)")
     return 0
 
@@ -692,8 +694,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--known", action="append", metavar="NAME=VALUE",
                    help="a value known from the rig, held fixed (repeatable): L1_mm, L2_mm, "
                    "L3_0_mm, speed_mm_s, start_s (drive switched on, video clock), stroke_mm")
-    p.add_argument("--rerun", metavar="FILE.rrd",
-                   help="also write a Rerun recording of the run with the fit")
+    p.add_argument("--rerun", nargs="?", const="RUN/run.rrd", metavar="FILE|spawn",
+                   help="also write the run's Rerun recording with the fit (default "
+                   "RUN/run.rrd, or FILE), or open a live viewer with `spawn`")
     p.set_defaults(func=cmd_fit)
 
     p = sub.add_parser("sweep", help="parametric maps over frame length and starting angle")

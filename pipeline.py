@@ -275,8 +275,9 @@ def compare_run(run: Path, fixed: dict[str, float]) -> tuple[Comparison, list[Pa
 def record_run(run: Path, spawn: bool = False, path: Path | None = None) -> Path:
     """Write the run's Rerun recording (default ``run/run.rrd``).
 
-    With a comparison in the folder, the fitted model's B is drawn over the
-    video, mapped back to pixels through the run's own calibration.
+    With a fitted model in the folder (``cranktrack fit``'s final model, else
+    ``compare``'s), its markers are drawn over the video, mapped back to pixels
+    through the run's own calibration.
     """
     import json
 
@@ -294,17 +295,28 @@ def record_run(run: Path, spawn: bool = False, path: Path | None = None) -> Path
         video = None  # moved or deleted: the recording still has tracks and plots
     kin = pd.read_csv(run / "kinematics.csv") if (run / "kinematics.csv").exists() else None
     comparison = model_px = None
+    t = tracks["t_s"].to_numpy(float)
+    theta = L1 = L2 = None
     if (run / "compare.csv").exists() and (run / "compare.json").exists():
         comparison = pd.read_csv(run / "compare.csv")
         report = json.loads((run / "compare.json").read_text())
         params = {k: v["value"] for k, v in {**report["fixed"], **report["fitted"]}.items()}
         drive = SpoolDrive(**params)
-        t = tracks["t_s"].to_numpy(float)
-        theta = drive.bed.theta(drive.slider(t).L3)
+        theta, L1, L2 = drive.bed.theta(drive.slider(t).L3), drive.L1, drive.L2
+    fit = pd.read_csv(run / "fit" / "fit.csv") if (run / "fit" / "fit.csv").exists() else None
+    if fit is not None and (run / "fit" / "report.json").exists():
+        # The closed loop's final model, effects included, is the better overlay.
+        values = {k: v["value"] for k, v in
+                  json.loads((run / "fit" / "report.json").read_text())["parameters"].items()}
+        theta = np.interp(t, fit["t_s"], np.radians(fit["theta_deg_final"]),
+                          left=np.nan, right=np.nan)
+        L1, L2 = values["L1_mm"], values["L2_mm"]
+    if theta is not None:
         side = np.sign(np.nanmedian(tracks["B_y_mm"])) if "B_y_mm" in tracks else 1.0
         cal = load_calibration(run / "calibration.json")
-        model_px = np.stack(cal.to_image(drive.L2 * np.cos(theta),
-                                         side * drive.L2 * np.sin(theta)), axis=1)
-    fit = pd.read_csv(run / "fit" / "fit.csv") if (run / "fit" / "fit.csv").exists() else None
+        plane = {"A": (np.zeros_like(t), np.zeros_like(t)),
+                 "B": (L2 * np.cos(theta), side * L2 * np.sin(theta)),
+                 "C": (np.full_like(t, L1), np.zeros_like(t))}
+        model_px = {k: np.stack(cal.to_image(*xy), axis=1) for k, xy in plane.items()}
     return write_recording(path or run / "run.rrd", video, tracks, kin, comparison, model_px,
                            spawn=spawn, fit=fit)

@@ -7,7 +7,9 @@ Layout of the entities (timeline ``time``: the video's presentation time, s):
   container's own timestamps;
 - ``video/markers/<name>``: each detected marker, radius = 3σ (at least 2 px);
 - ``video/links/{AB,AC,BC}``: the crank, the frame and the wire;
-- ``video/model/B``: where the fitted model puts B, in another colour;
+- ``video/model/{A,B,C}``: where the fitted model puts the markers, in
+  another colour (the closed loop's final model when ``cranktrack fit`` has
+  run, else the ``compare`` fit);
 - ``plots/<quantity>/{measured,model}`` and ``plots/residual/theta``:
   θ, ω, |v_B| measured and modelled, and the residual θ − θ_model;
 - after ``cranktrack fit``: ``plots/theta/fitted`` (the model with the
@@ -66,7 +68,7 @@ def write_recording(
     tracks: pd.DataFrame,
     kinematics: pd.DataFrame | None = None,
     comparison: pd.DataFrame | None = None,
-    model_B_px: np.ndarray | None = None,
+    model_px: dict[str, np.ndarray] | None = None,
     spawn: bool = False,
     fit: pd.DataFrame | None = None,
 ) -> Path:
@@ -82,8 +84,9 @@ def write_recording(
         The run's tables.
     comparison : DataFrame, optional
         ``compare.csv``'s table (measured and model side by side).
-    model_B_px : ndarray (n, 2), optional
-        The model's B in image pixels, row-aligned with ``tracks``.
+    model_px : dict of ndarray (n, 2), optional
+        The model's markers (``"A"``, ``"B"``, ``"C"``) in image pixels,
+        row-aligned with ``tracks``.
     spawn : bool
         Also open a live viewer.
     fit : DataFrame, optional
@@ -120,9 +123,9 @@ def write_recording(
                 f"video/links/{a}{b}", indexes=[rr.TimeColumn("time", duration=t[ok])],
                 columns=rr.LineStrips2D.columns(strips=list(strips)).partition(
                     [1] * int(ok.sum())))
-    if model_B_px is not None:
-        _column_points(rec, "video/model/B", t, np.asarray(model_B_px, float),
-                       np.full(len(t), 4.0), MODEL_COLOUR, "B model")
+    for name, xy in (model_px or {}).items():
+        _column_points(rec, f"video/model/{name}", t, np.asarray(xy, float),
+                       np.full(len(t), 4.0), MODEL_COLOUR, f"{name} model")
     if kinematics is not None:
         tk = kinematics["t_s"].to_numpy(float)
         for key, col, _ in PLOTS:

@@ -61,6 +61,8 @@ def test_fit_with_rerun_records_the_residual_before_and_after(run, tmp_path):
     entities = read_entities(rrd)
     for path in ("/plots/residual/before", "/plots/residual/after", "/plots/theta/fitted"):
         assert entities[path]["rows"] == len(fitted)
+    for m in "ABC":  # the final model's markers over the video
+        assert entities[f"/video/model/{m}"]["rows"] == len(fitted)
     np.testing.assert_allclose(read_times(rrd, "/plots/residual/after"), fitted["t_s"],
                                atol=1e-6)
     assert "## Closing the loop" in (run / "report.md").read_text()
