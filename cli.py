@@ -110,7 +110,7 @@ def _spool_scenario(args: argparse.Namespace):
 def _render(args: argparse.Namespace, out: Path):
     from dataclasses import replace
 
-    from cranktrack.synthetic.effects import EFFECTS, parse_effects
+    from cranktrack.synthetic.effects import parse_effects
     from cranktrack.synthetic.scene import render_scene
 
     effects = parse_effects(getattr(args, "effect", None))
@@ -118,13 +118,13 @@ def _render(args: argparse.Namespace, out: Path):
         if name in effects:
             setattr(args, name, effects[name])
     settings = _render_settings(args)
-    if "exposure_s" in effects:
-        settings = replace(settings, exposure_s=effects["exposure_s"])
+    for name in ("exposure_s", "readout_s"):  # camera effects that are render settings
+        if name in effects:
+            settings = replace(settings, **{name: effects[name]})
     scenario = _spool_scenario(args)
-    motion_effects = {k: v for k, v in effects.items() if EFFECTS[k].kind != "camera"}
     with _progress("render", settings.n_frames) as bar:
         return render_scene(scenario, out, settings, camera=_camera(args, scenario),
-                            on_frame=lambda i, n: bar.update(1), effects=motion_effects,
+                            on_frame=lambda i, n: bar.update(1), effects=effects,
                             declare_effects=getattr(args, "declare_effects", False))
 
 
@@ -391,8 +391,10 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from cranktrack.pipeline import fit_run
 
     known = parse_known(args.known, args.model)
+    from cranktrack.report.fit import fit_report
+
     result, files = fit_run(Path(args.run), args.model, known)
-    _print_fit(result.to_dict())
+    _print_fit(fit_report(result))
     if args.rerun:
         spawn = args.rerun == "spawn"
         target = None if spawn or args.rerun == "RUN/run.rrd" else Path(args.rerun)
@@ -418,6 +420,9 @@ def _print_fit(report: dict) -> None:
                            for k in c["parameters"])
         print(f"effect accepted (round {c['round']}): {c['name']}: {values} "
               f"(ΔBIC {c['delta_bic']:.0f} when added)")
+    for name, d in report.get("effect_docs", {}).items():
+        if d["also_looks_like"]:
+            print(f"  {name} is also what {d['also_looks_like']}")
     for g in report["look_alike_groups"]:
         print(f"look-alikes: {', '.join(g['effects'])} fit equally well; to tell them apart, "
               f"{g['separated_by']}")
@@ -592,7 +597,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--effect", action="append", metavar="NAME=VALUE",
                    help="switch on an effect the models lack (repeatable): slack_mm, "
                         "spool_growth_per_s, return_spring_hz, return_spring_zeta, "
-                        "dropped_frames, fps_label, k1, k2, tilt_deg, exposure_s")
+                        "dropped_frames, fps_label, k1, k2, tilt_deg, exposure_s, readout_s, "
+                        "pivot_amp_mm, pivot_hz")
     p.add_argument("--declare-effects", action="store_true",
                    help="list the effects in scene.json (off: data with an undeclared effect)")
     p.add_argument("--theta-init-deg", type=float, default=70.0,

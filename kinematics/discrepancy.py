@@ -91,6 +91,7 @@ class Candidate:
     needs_known: tuple[str, ...] = ()
     family: str = ""
     separated_by: str = ""
+    also_looks_like: str = ""
 
 
 #: Base parameters of the spool model, named as ``--known`` takes them.
@@ -115,7 +116,12 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
     Candidate("time_offset_s", "recording", (Parameter("time_offset_s", "s", -5.0, 5.0),),
               ((0.05,), (-0.05,)), 0.0, (-5.0, 5.0),
               "every event happens later (or earlier) on the video's clock than the known start",
-              needs_known=("start_s",), family="delay", separated_by=_DELAY),
+              needs_known=("start_s",), family="delay", separated_by=_DELAY,
+              also_looks_like="a rolling shutter (B caught readout × row/height after the frame "
+              "time), a lagging servo, or motion blur from an exposure that is not centred on "
+              "the timestamp; to tell them apart, film an LED lit with the drive in several "
+              "image rows, or turn the camera by 90°: a rolling shutter's delay follows the "
+              "image row, a clock offset does not"),
     Candidate("spool_growth_per_s", "physical",
               (Parameter("spool_growth_per_s", "1/s", -0.9, 10.0),),
               ((0.1,), (0.5,)), 0.0, (0.0, 5.0),
@@ -132,7 +138,9 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
               "every rate is off by one factor: the container's frame rate is not the "
               "camera's (true time = clock_scale × video time)",
               needs_known=("speed_mm_s",), family="rate",
-              separated_by="film a clock or a stopwatch, or measure the spool speed on the bench"),
+              separated_by="film a clock or a stopwatch, or measure the spool speed on the bench",
+              also_looks_like="a spool speed off its nominal value by the same factor; a "
+              "stopwatch in the picture separates the two"),
 )}
 
 #: Names ``--known`` accepts per model.
@@ -474,6 +482,7 @@ class LoopResult:
     diagnosis_after: dict
     noise: NoiseModel
     tracker_sigma_deg: float
+    links: dict = field(default_factory=dict)
     messages: list[str] = field(default_factory=list)
 
     @property
@@ -500,6 +509,8 @@ class LoopResult:
             unexplained = ("the residual stays structured and matches no candidate"
                            + (f"; it correlates most with {top[0]} (r = {top[1]:.2f})"
                               if top else ""))
+            if self.links.get("camera_effect_suspected"):
+                unexplained += "; " + self.links["reading"]
         return {
             "model": self.model,
             "known": self.known,
@@ -520,6 +531,8 @@ class LoopResult:
             "candidates": [s.to_dict() for s in self.scores],
             "not_separable": self.not_separable,
             "look_alike_groups": self.groups,
+            "links": self.links,
+            "camera_effect_suspected": bool(self.links.get("camera_effect_suspected", False)),
             "unexplained": unexplained,
             "diagnosis_before": before,
             "diagnosis_after": after,
@@ -548,6 +561,41 @@ def _spool_guess(t: NDArray, theta: NDArray, measured: pd.DataFrame,
     guess["stroke_mm"] = float(max(stroke, 0.1))
     guess.update(known)
     return guess
+
+
+def link_evidence(measured: pd.DataFrame, tracker_sigma_deg: float) -> dict:
+    """What the rigid links say: a camera effect (lens distortion, tilt, a wrong
+    calibration) bends rigid lengths as the mechanism moves across the image; a
+    mechanism effect does not. The crank |AB| is suspect when it varies by more than
+    twice what the tracker's σ allows and follows θ (|r| > 0.7)."""
+    if "L2_mm" not in measured or "theta_deg" not in measured:
+        return {}
+    out: dict = {}
+    theta = measured["theta_deg"].to_numpy(float)
+    for name in ("L1_mm", "L2_mm"):
+        if name not in measured:
+            continue
+        x = measured[name].to_numpy(float)
+        ok = np.isfinite(x) & np.isfinite(theta)
+        if ok.sum() < 12:
+            continue
+        r = (float(np.corrcoef(x[ok], theta[ok])[0, 1])
+             if np.std(x[ok]) > 0 and np.std(theta[ok]) > 0 else 0.0)
+        out[name] = {"median_mm": float(np.median(x[ok])), "std_mm": float(np.std(x[ok])),
+                     "r_with_theta": r}
+    crank = out.get("L2_mm")
+    if crank:
+        expected = crank["median_mm"] * np.radians(tracker_sigma_deg)
+        suspect = crank["std_mm"] > 2.0 * expected and abs(crank["r_with_theta"]) > 0.7
+        out["crank_std_expected_mm"] = float(expected)
+        out["camera_effect_suspected"] = bool(suspect)
+        if suspect:
+            out["reading"] = (f"the rigid crank |AB| varies by {crank['std_mm']:.3f} mm (σ; the "
+                              f"tracker allows {expected:.3f}) and follows θ (r = "
+                              f"{crank['r_with_theta']:.2f}): a camera effect such as lens "
+                              "distortion or tilt, not the mechanism — calibrate the camera "
+                              "(`cranktrack calibrate camera`, then `calibrate plane`)")
+    return out
 
 
 def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
@@ -698,4 +746,5 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
     before = diagnose(base, deg, t, ctx)
     after = diagnose(current, deg, t, ctx)
     return LoopResult(model, known, base, current, steps, scores, not_separable, groups,
-                      before, after, noise, tracker_deg, messages)
+                      before, after, noise, tracker_deg, link_evidence(measured, tracker_deg),
+                      messages)

@@ -93,6 +93,12 @@ def report_markdown(report: dict) -> str:
         lines.append(f"| {c['round']} | {c['name']} | {c['delta_bic']:.1f} | "
                      f"{c['rmse_deg']:.4g} | {c['imprint_deg']:.3g} | {vals} | "
                      f"{'yes' if c['accepted'] else 'no'} | {c['note']} |")
+    docs = report.get("effect_docs", {})
+    if any(d["also_looks_like"] for d in docs.values()):
+        lines += ["", "## What else an accepted effect looks like", ""]
+        for name, d in docs.items():
+            if d["also_looks_like"]:
+                lines.append(f"- `{name}` is also what {d['also_looks_like']}.")
     if report["look_alike_groups"]:
         lines += ["", "## Effects that look alike", ""]
         for g in report["look_alike_groups"]:
@@ -116,6 +122,18 @@ def report_markdown(report: dict) -> str:
         b, a = before["phases"].get(name), after["phases"].get(name)
         if b and a:
             lines.append(f"| RMSE {label} (deg) | {b['rmse_deg']:.4g} | {a['rmse_deg']:.4g} |")
+    links = report.get("links", {})
+    if "L2_mm" in links:
+        lines += ["", "## Rigid links (a camera effect bends them, a mechanism effect does not)",
+                  "", "| link | median (mm) | σ (mm) | r with θ |", "|---|---|---|---|"]
+        for name in ("L1_mm", "L2_mm"):
+            if name in links:
+                v = links[name]
+                lines.append(f"| {name} | {v['median_mm']:.3f} | {v['std_mm']:.4f} | "
+                             f"{v['r_with_theta']:+.2f} |")
+        lines.append("")
+        lines.append(f"Camera effect suspected: {report['camera_effect_suspected']} (the "
+                     f"tracker's σ allows {links['crank_std_expected_mm']:.4f} mm on |AB|).")
     if report["unexplained"]:
         lines += ["", f"**Unexplained:** {report['unexplained']}."]
     for m in report["messages"]:
@@ -124,12 +142,19 @@ def report_markdown(report: dict) -> str:
     return "\n".join(lines)
 
 
+def fit_report(result: LoopResult) -> dict:
+    """``report.json``'s content: the loop's result and what each accepted effect looks like."""
+    report = result.to_dict()
+    report["effect_docs"] = {name: {"shows_as": CANDIDATES[name].shows_as,
+                                    "also_looks_like": CANDIDATES[name].also_looks_like}
+                             for name in result.effects if name in CANDIDATES}
+    return report
+
+
 def write_fit_report(folder: Path, result: LoopResult, t_s: np.ndarray) -> list[Path]:
     """Write ``report.json``, ``report.md``, ``fit.csv`` and ``residuals.png`` in ``folder``."""
     folder = ensure_dir(Path(folder))
-    report = result.to_dict()
-    report["effect_docs"] = {name: CANDIDATES[name].shows_as for name in result.effects
-                             if name in CANDIDATES}
+    report = fit_report(result)
     table = fit_table(result, t_s)
     return [write_json_atomic(folder / "report.json", report),
             write_csv_atomic(folder / "fit.csv", table),

@@ -13,14 +13,14 @@ same names (lens, tilt, exposure).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cranktrack.errors import CranktrackError
 from cranktrack.kinematics.spool import spool_motion
-from cranktrack.synthetic.scenarios import Motion, SpoolScenario, motion_from_angle
+from cranktrack.synthetic.scenarios import Motion, Scenario, SpoolScenario, motion_from_angle
 
 
 @dataclass(frozen=True)
@@ -63,7 +63,20 @@ EFFECTS: dict[str, EffectInfo] = {
                            "biased"),
     "exposure_s": EffectInfo("camera", "s", "motion blur: moving markers smear along their "
                              "path over the exposure"),
+    "readout_s": EffectInfo("camera", "s", "rolling shutter: rows are read out one after "
+                            "another over this time, so a marker lower in the image is caught "
+                            "later and θ, built from points caught at different instants, "
+                            "errs by ω × the time between their rows"),
+    "pivot_amp_mm": EffectInfo("physical", "mm", "the whole frame (pivot A and slider end C) "
+                               "shakes across the A–C line with this amplitude: θ and ω are "
+                               "untouched (they come from the three points together), but A's "
+                               "track moves and v_B carries the frame's own velocity"),
+    "pivot_hz": EffectInfo("physical", "Hz", "frequency of that shaking (default 5 Hz when "
+                           "pivot_amp_mm is set)"),
 }
+
+#: Effects that work on any scenario (the rest of the physical ones are the spool's).
+ANY_SCENARIO = ("pivot_amp_mm", "pivot_hz")
 
 
 def parse_effects(items: list[str] | None) -> dict[str, float]:
@@ -82,6 +95,11 @@ def parse_effects(items: list[str] | None) -> dict[str, float]:
             raise CranktrackError(f"--effect {item!r}: {value!r} is not a number") from None
     if "return_spring_zeta" in out and "return_spring_hz" not in out:
         raise CranktrackError("return_spring_zeta needs return_spring_hz")
+    if "pivot_hz" in out and "pivot_amp_mm" not in out:
+        raise CranktrackError("pivot_hz needs pivot_amp_mm")
+    for name in ("readout_s", "pivot_amp_mm", "pivot_hz", "exposure_s"):
+        if name in out and out[name] < 0:
+            raise CranktrackError(f"{name} cannot be negative")
     return out
 
 
@@ -134,3 +152,34 @@ def recording_times(n: int, fps: float, effects: dict[str, float], seed: int = 0
     if not label > 0:
         raise CranktrackError("fps_label must be positive")
     return keep, keep / label
+
+
+@dataclass(frozen=True)
+class ShakenFrame:
+    """Any scenario on a frame that shakes across the A–C line (pivot motion):
+    every point moves by ``amp_mm·sin(2π·hz·t)`` in y, and so does v_B."""
+
+    base: Scenario
+    amp_mm: float
+    hz: float = 5.0
+
+    @property
+    def name(self) -> str:
+        return self.base.name
+
+    def motion(self, t_s: ArrayLike) -> Motion:
+        t = np.asarray(t_s, dtype=float)
+        m = self.base.motion(t)
+        w = 2 * np.pi * self.hz
+        shift = np.stack([np.zeros_like(t), self.amp_mm * np.sin(w * t)], axis=1)
+        speed = np.stack([np.zeros_like(t), self.amp_mm * w * np.cos(w * t)], axis=1)
+        return replace(m, points_mm={k: v + shift for k, v in m.points_mm.items()},
+                       vB_mm_s=m.vB_mm_s + speed)
+
+    def extent_mm(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        lo, hi = self.base.extent_mm()
+        pad = np.array([0.0, self.amp_mm])
+        return lo - pad, hi + pad
+
+    def to_dict(self) -> dict:
+        return self.base.to_dict()

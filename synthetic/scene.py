@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -12,9 +12,15 @@ import numpy as np
 from cranktrack.errors import CranktrackError
 from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic
 from cranktrack.synthetic.camera import Camera, PinholeCamera
-from cranktrack.synthetic.effects import EFFECTS, EffectedSpool, recording_times
+from cranktrack.synthetic.effects import (
+    ANY_SCENARIO,
+    EFFECTS,
+    EffectedSpool,
+    ShakenFrame,
+    recording_times,
+)
 from cranktrack.synthetic.render import Style, draw_capsule, render_frame, to_uint8
-from cranktrack.synthetic.scenarios import Scenario, SpoolScenario
+from cranktrack.synthetic.scenarios import Motion, Scenario, SpoolScenario
 from cranktrack.synthetic.truth import truth_table
 from cranktrack.synthetic.video import VideoWriter
 
@@ -34,7 +40,9 @@ class RenderSettings:
     ``blur_samples`` renders across the exposure (centred on the frame time,
     which is the time in ``truth.csv``); ``light_gradient`` is a left-to-right
     change of illumination (fraction of the mean, e.g. 0.3) whose strength
-    sweeps over the clip as ``sin(π·t/seconds)``.
+    sweeps over the clip as ``sin(π·t/seconds)``; ``readout_s`` > 0 is a
+    rolling shutter: the row at height y is caught ``readout_s·y/height``
+    after the frame time (the first row is caught at the frame time).
     """
 
     size: tuple[int, int] = (1280, 720)
@@ -47,6 +55,7 @@ class RenderSettings:
     exposure_s: float = 0.0
     blur_samples: int = 7
     light_gradient: float = 0.0
+    readout_s: float = 0.0
 
     @property
     def n_frames(self) -> int:
@@ -89,6 +98,8 @@ def _expose(scenario: Scenario, camera: Camera | PinholeCamera, settings: Render
     else:
         times = np.array([t])
     motion = scenario.motion(times)
+    if settings.readout_s > 0:
+        motion = _rolling(scenario, camera, settings, times, motion)
     canvas, offset = camera.ideal_canvas()
     img = None
     for j in range(len(times)):
@@ -104,6 +115,18 @@ def _expose(scenario: Scenario, camera: Camera | PinholeCamera, settings: Render
         _draw_cover(img, camera.ideal_project(xy) + np.asarray(offset),
                     style.marker_radius_mm * float(camera.local_scale(xy)))
     return camera.warp(img, offset)
+
+
+def _rolling(scenario: Scenario, camera: Camera | PinholeCamera, settings: RenderSettings,
+             times: np.ndarray, motion: Motion) -> Motion:
+    """Each marker where it is when the shutter reaches its row (one fixed-point step:
+    a marker moves far less than a row in the readout time)."""
+    points = {}
+    for name, xy in motion.points_mm.items():
+        rows = np.asarray(camera.project(xy))[:, 1]
+        late = times + settings.readout_s * np.clip(rows, 0, settings.size[1]) / settings.size[1]
+        points[name] = scenario.motion(late).points_mm[name]
+    return replace(motion, points_mm=points)
 
 
 def _draw_cover(img: np.ndarray, centre_px: np.ndarray, radius_px: float) -> None:
@@ -147,13 +170,16 @@ def render_scene(
     """
     style = style or Style()
     folder = ensure_dir(out_dir)
-    camera = camera or scenario_camera(scenario, settings.size)
     effects = dict(effects or {})
-    physical = {k: v for k, v in effects.items() if EFFECTS[k].kind == "physical"}
+    physical = {k: v for k, v in effects.items()
+                if EFFECTS[k].kind == "physical" and k not in ANY_SCENARIO}
     if physical:
         if not isinstance(scenario, SpoolScenario):
             raise CranktrackError(f"the effects {sorted(physical)} apply to the spool scenario")
         scenario = EffectedSpool(scenario, physical)
+    if effects.get("pivot_amp_mm", 0) > 0:
+        scenario = ShakenFrame(scenario, effects["pivot_amp_mm"], effects.get("pivot_hz", 5.0))
+    camera = camera or scenario_camera(scenario, settings.size)
     keep, stamps = recording_times(settings.n_frames, settings.fps, effects, settings.seed)
     n = len(keep)
     t = keep / settings.fps  # when each written frame was really taken
@@ -190,6 +216,7 @@ def render_scene(
             "supersample": style.supersample,
             "exposure_s": settings.exposure_s,
             "light_gradient": settings.light_gradient,
+            "readout_s": settings.readout_s,
         },
         "style": {
             "marker_radius_mm": style.marker_radius_mm,

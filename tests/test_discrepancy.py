@@ -196,3 +196,26 @@ def test_a_tracked_render_without_effects_gets_none(rendered, seed):
         report = fit(run, known)
         assert report["effects"] == [], (known, report["candidates"])
         assert report["rmse_after_deg"] <= 1.5 * floor_deg(scene, run)
+
+
+def test_a_rolling_shutter_is_reported_as_a_delay_with_what_tells_it_apart(rendered):
+    readout = 0.033
+    scene, run = rendered("rolling", (f"readout_s={readout}",))
+    report = fit(run, KNOWN)
+    assert report["effects"] == ["time_offset_s"]
+    # B, which sets θ, is caught readout × row/height after the frame time.
+    truth = pd.read_csv(scene / "truth.csv")
+    height = json.loads((scene / "scene.json").read_text())["render"]["height"]
+    expected = -readout * truth["B_y_px"].mean() / height
+    assert report["parameters"]["time_offset_s"]["value"] == pytest.approx(expected, rel=0.2)
+    assert "rolling shutter" in report["effect_docs"]["time_offset_s"]["also_looks_like"]
+    assert not report["camera_effect_suspected"]
+
+
+def test_an_uncalibrated_lens_is_not_forced_onto_a_candidate(rendered):
+    _, run = rendered("lens", ("k1=-0.2",))
+    report = fit(run, KNOWN)
+    assert report["effects"] == []
+    assert report["camera_effect_suspected"]
+    assert "B image row" in report["unexplained"]
+    assert "calibrate the camera" in report["unexplained"]
