@@ -70,6 +70,58 @@ def loop(run: Path, effect: str | None, value: float | None, known: dict | None 
     return report
 
 
+def sindy_terms(run: Path) -> set[str]:
+    """Terms PySINDy (SINDy with control, STLSQ) keeps in the equation for θ'' from the
+    same measured θ: state (θ − θ_end, θ'), control (drive on, time since start while
+    driving), linear library. The drive's start and stop are the known ones."""
+    import warnings
+
+    import pysindy as ps
+
+    k = pd.read_csv(run / "kinematics.csv")
+    t = k["t_s"].to_numpy(float)
+    theta = np.radians(k["theta_deg"].to_numpy(float))
+    fd = ps.SmoothedFiniteDifference(smoother_kws={"window_length": 7})
+    omega = fd(theta, t)
+    start, stop = KNOWN["start_s"], KNOWN["start_s"] + KNOWN["stroke_mm"] / KNOWN["speed_mm_s"]
+    drive = ((t > start) & (t < stop)).astype(float)
+    x = np.stack([theta - theta[-1], omega], axis=1)
+    u = np.stack([drive, drive * (t - start)], axis=1)
+    model = ps.SINDy(feature_library=ps.PolynomialLibrary(degree=1),
+                     optimizer=ps.STLSQ(threshold=0.05, alpha=1e-3), differentiation_method=fd)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model.fit(x, t=t, u=u, feature_names=["theta", "omega", "drive", "ramp"])
+    names = model.get_feature_names()
+    return {n for n, c in zip(names, model.coefficients()[1], strict=True) if c != 0}
+
+
+def sindy_comparison(seeds: int) -> None:
+    """How often SINDy keeps the term an effect needs, and how often it keeps it anyway."""
+    try:
+        import pysindy  # noqa: F401
+    except ImportError:
+        print("\nPySINDy comparison skipped: pip install 'cranktrack[bench]'")
+        return
+    rows = []
+    for noise in (2.5, 8.0):
+        for seed in range(seeds):
+            rows.append(("none", sindy_terms(tracked(f"null_n{noise:g}_s{seed}", {}, seed,
+                                                      noise))))
+        for effect in ("return_spring_hz", "spool_growth_per_s"):
+            for size in EFFECTS[effect][1]:
+                rows.append((effect, sindy_terms(tracked(f"{effect}_{size:g}_n{noise:g}",
+                                                         {effect: size}, 0, noise))))
+    print("\nPySINDy (SINDy with control) on the same measured θ: terms kept in θ''")
+    for label, term in (("return_spring_hz", "theta"), ("spool_growth_per_s", "ramp")):
+        hit = [term in terms for e, terms in rows if e == label]
+        null = [term in terms for e, terms in rows if e == "none"]
+        print(f"  '{term}' (what {label} needs): kept in {sum(hit)} of {len(hit)} renders "
+              f"with the effect and in {sum(null)} of {len(null)} without any effect")
+    sizes = [len(terms) for _, terms in rows]
+    print(f"  terms kept per equation: {min(sizes)}–{max(sizes)} of 5")
+
+
 def main_bench() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=10, help="null renders per noise level (10)")
@@ -131,6 +183,7 @@ def main_bench() -> None:
         print(f"  {effect}: " + ", ".join(f"{s:g} {'found' if h else 'missed'}"
                                           for s, h in seen)
               + (f" → weakest detected {found[0]:g}" if found else " → none detected"))
+    sindy_comparison(args.seeds)
     (CACHE / "last.json").write_text(json.dumps(table.drop(columns=["named"])
                                                 .to_dict(orient="records"), default=str))
 
