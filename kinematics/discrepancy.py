@@ -32,17 +32,20 @@ group with the experiment that would tell them apart.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
+from scipy.integrate import odeint
 from scipy.optimize import least_squares
 from statsmodels.stats.diagnostic import acorr_ljungbox
 
 from cranktrack.errors import CranktrackError
 from cranktrack.kinematics.compare import fit_percent
+from cranktrack.kinematics.dynamics import COULOMB_SMOOTHING, CrankDynamics
 from cranktrack.kinematics.spool import TABLE_2_2, SpoolDrive, spool_motion
 
 #: ΔBIC an effect must win by. 10 is "very strong" on the Kass–Raftery scale, but
@@ -143,8 +146,6 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
               "stopwatch in the picture separates the two"),
 )}
 
-#: Names ``--known`` accepts per model.
-KNOWN_NAMES = {"spool": tuple(SPOOL_BASE)}
 
 
 def parse_known(items: list[str] | None, model: str = "spool") -> dict[str, float]:
@@ -187,6 +188,150 @@ def spool_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[n
     if not np.all(np.isfinite(theta)):
         raise CranktrackError("the linkage does not close for these values")
     return theta
+
+
+#: Base parameters of the free-response model (thesis eq. 3.28 per unit inertia).
+DYNAMIC_BASE = {
+    "theta_init_deg": Parameter("theta_init_deg", "deg", -360.0, 360.0),
+    "omega_init_rad_s": Parameter("omega_init_rad_s", "rad/s", -100.0, 100.0),
+    "k_l": Parameter("k_l", "1/s²", 1e-6, 1e5),
+    "k_s": Parameter("k_s", "1/(mm·s)²·mm", 0.0, 1e3),
+    "k_d": Parameter("k_d", "1/s", 0.0, 1e3),
+    "theta_rest_deg": Parameter("theta_rest_deg", "deg", 0.0, 360.0),
+    "L1_mm": Parameter("L1_mm", "mm", 1.0, 1e5),
+    "L2_mm": Parameter("L2_mm", "mm", 1.0, 1e5),
+}
+
+#: The effects the free-response model can be extended by.
+DYNAMIC_CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
+    Candidate("coulomb_rad_s2", "physical",
+              (Parameter("coulomb_rad_s2", "rad/s²", 0.0, 1e3),), ((0.2,), (1.0,)), 0.0,
+              (0.0, 1e3),
+              "the swing shrinks by the same angle every half cycle instead of by the same "
+              "fraction, and the crank stops off the springs' equilibrium",
+              also_looks_like="stiction in a bearing or a rubbing marker; a swing started "
+              "from a larger angle separates it from extra viscous damping (dry friction "
+              "costs the same angle per swing whatever the amplitude)"),
+)}
+
+
+def dynamic_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[np.float64]:
+    """θ (rad) of the free response (eq. 3.28, unit inertia, ε = 0.05) from t_s[0], with
+    Coulomb friction when ``values`` sets it (LSODA, rtol 1e-9)."""
+    v = values
+    L1, L2 = v["L1_mm"], v["L2_mm"]
+    dyn = CrankDynamics(I=1.0, k_l=v["k_l"], k_s=v["k_s"], k_d=v["k_d"], L1=L1, L2=L2,
+                        theta0=np.radians(v["theta_rest_deg"]),
+                        coulomb=v.get("coulomb_rad_s2", 0.0))
+    k_l, k_s, k_d, th0, L3_0, fc = (dyn.k_l, dyn.k_s, dyn.k_d, dyn.theta0, dyn.L3_0,
+                                    dyn.coulomb)
+    a, b = L1 * L1 + L2 * L2, 2.0 * L1 * L2
+
+    # Plain floats: the integrator calls this thousands of times per fit.
+    def rhs(y: NDArray, _t: float) -> list[float]:
+        th, om = float(y[0]), float(y[1])
+        L3 = math.sqrt(a - b * math.cos(th))
+        wire = k_s * L1 * L2 * math.sin(th) * (1.0 - L3_0 / L3)
+        friction = fc * math.tanh(om / COULOMB_SMOOTHING) if fc else 0.0
+        return [om, k_l * (th0 - th) - k_d * om - wire - friction]
+
+    t = np.asarray(t_s, float)
+    # LSODA (odeint) rather than RK45 here: the same answer, several times faster with a
+    # Python right-hand side, and a fit simulates a thousand times.
+    y, info = odeint(rhs, [np.radians(v["theta_init_deg"]), v["omega_init_rad_s"]], t,
+                     rtol=1e-9, atol=1e-11, full_output=True)
+    if info["message"] != "Integration successful.":
+        raise CranktrackError("the free response could not be integrated for these values")
+    return y[:, 0]
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """A base model the loop can fit: its parameters, simulation, effect library,
+    starting values (``guesses``: data → list of full value sets) and what must be held
+    for the rest to be identifiable (``hold``: data, known → extra values, messages)."""
+
+    name: str
+    base: dict[str, Parameter]
+    simulate: Callable[[dict[str, float], NDArray[np.float64]], NDArray[np.float64]]
+    candidates: dict[str, Candidate]
+    guesses: Callable[[NDArray, NDArray, pd.DataFrame, dict[str, float]], list[dict]]
+    hold: Callable[[pd.DataFrame, dict[str, float]], tuple[dict[str, float], list[str]]]
+    #: Relative step of the fit's finite-difference Jacobian: well above the
+    #: simulation's own error, or the Jacobian is noise.
+    diff_step: float = 1e-7
+
+
+def _measured_median(measured: pd.DataFrame, col: str) -> float | None:
+    if col in measured and np.isfinite(measured[col]).any():
+        return float(np.nanmedian(measured[col]))
+    return None
+
+
+def _spool_hold(measured: pd.DataFrame, known: dict[str, float]
+                ) -> tuple[dict[str, float], list[str]]:
+    if "speed_mm_s" in known or {"L1_mm", "L2_mm", "L3_0_mm"} & set(known):
+        return {}, []
+    # θ(t) is unchanged when every length and the speed scale together: one length must
+    # be held, and the frame |AC| is measured directly.
+    L1 = _measured_median(measured, "L1_mm")
+    if L1 is None:
+        raise CranktrackError("with the speed unknown, give --known L1_mm (one length fixes "
+                              "the scale)")
+    return {"L1_mm": L1}, [f"L1_mm held at the measured |AC| = {L1:.3f} mm: with the speed "
+                           "unknown, one length must fix the scale"]
+
+
+def _spool_guesses(t: NDArray, theta: NDArray, measured: pd.DataFrame,
+                   held: dict[str, float]) -> list[dict]:
+    guess = _spool_guess(t, theta, measured, held)
+    if "start_s" in held:
+        return [guess]
+    span = float(t[-1] - t[0])
+    return [guess] + [{**guess, "start_s": guess["start_s"] + sh}
+                      for sh in (-0.05 * span, 0.05 * span)]
+
+
+def _dynamic_hold(measured: pd.DataFrame, known: dict[str, float]
+                  ) -> tuple[dict[str, float], list[str]]:
+    out, notes = {}, []
+    for col, what in (("L1_mm", "|AC|"), ("L2_mm", "|AB|")):
+        if col not in known:
+            value = _measured_median(measured, col)
+            if value is None:
+                raise CranktrackError(f"give --known {col}: the run has no measured {what}")
+            out[col] = value
+            notes.append(f"{col} held at the measured {what} = {value:.3f} mm (the wire "
+                         "stiffness absorbs what a free length would)")
+    return out, notes
+
+
+def _dynamic_guesses(t: NDArray, theta: NDArray, measured: pd.DataFrame,
+                     held: dict[str, float]) -> list[dict]:
+    """From the swing itself: its first angle and rate, where it settles, its frequency
+    (zero crossings about the settling angle) and its decay."""
+    deg = np.degrees(theta)
+    rest = float(np.median(deg[-max(3, deg.size // 4):]))
+    x = deg - rest
+    crossings = np.flatnonzero(np.sign(x[1:]) != np.sign(x[:-1]))
+    period = 2.0 * float(np.median(np.diff(t[crossings]))) if crossings.size > 2 \
+        else float(t[-1] - t[0])
+    wn = 2.0 * np.pi / max(period, 1e-6)
+    base = {"theta_init_deg": float(deg[0]),
+            "omega_init_rad_s": float((theta[1] - theta[0]) / (t[1] - t[0])),
+            "k_l": wn**2, "k_s": 0.0, "theta_rest_deg": rest, **held}
+    return [{**base, "k_d": 2.0 * zeta * wn} for zeta in (0.05, 0.2)]
+
+
+MODELS: dict[str, ModelSpec] = {
+    "spool": ModelSpec("spool", SPOOL_BASE, spool_theta, CANDIDATES, _spool_guesses,
+                       _spool_hold),
+    "dynamic": ModelSpec("dynamic", DYNAMIC_BASE, dynamic_theta, DYNAMIC_CANDIDATES,
+                         _dynamic_guesses, _dynamic_hold, diff_step=1e-4),
+}
+
+#: Names ``--known`` accepts per model.
+KNOWN_NAMES = {name: tuple(spec.base) for name, spec in MODELS.items()}
 
 
 def effective_samples(residual: NDArray[np.float64]) -> float:
@@ -298,8 +443,8 @@ def delta_bic(simpler: ModelFit, richer: ModelFit, noise: NoiseModel) -> float:
 
 
 def _fit(t: NDArray, theta: NDArray, simulate: Callable, fixed: dict[str, float],
-         free: list[Parameter], starts: list[list[float]], effects: tuple[str, ...]
-         ) -> ModelFit | None:
+         free: list[Parameter], starts: list[list[float]], effects: tuple[str, ...],
+         diff_step: float = 1e-7) -> ModelFit | None:
     """Least squares of ``theta − simulate(values, t)`` from each start; the best, or None."""
     def values_of(x: NDArray) -> dict[str, float]:
         return {**fixed, **{p.name: float(v) for p, v in zip(free, x, strict=True)}}
@@ -320,7 +465,7 @@ def _fit(t: NDArray, theta: NDArray, simulate: Callable, fixed: dict[str, float]
             continue
         with np.errstate(all="ignore"):
             sol = least_squares(residual, x0, bounds=(lo, hi), x_scale="jac", method="trf",
-                                diff_step=1e-7, max_nfev=MAX_EVALUATIONS)
+                                diff_step=diff_step, max_nfev=MAX_EVALUATIONS)
         if best is None or sol.cost < best.cost:
             best = sol
     if best is None or np.all(best.fun == 10.0):
@@ -490,8 +635,9 @@ class LoopResult:
         return list(self.final.effects)
 
     def to_dict(self) -> dict:
-        units = {**{k: p.unit for k, p in SPOOL_BASE.items()},
-                 **{p.name: p.unit for c in CANDIDATES.values() for p in c.parameters}}
+        spec = MODELS[self.model]
+        units = {**{k: p.unit for k, p in spec.base.items()},
+                 **{p.name: p.unit for c in spec.candidates.values() for p in c.parameters}}
         sig = self.final.sigmas(self.noise)
         params = {}
         for k, v in self.final.values.items():
@@ -609,24 +755,27 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
         A kinematics table: ``t_s``, ``theta_deg`` (per frame, not smoothed),
         ``theta_deg_sigma``, ``L3_mm``; ``L1_mm``/``L2_mm`` seed the lengths.
     known : dict
-        Values the user knows from the rig, held fixed (names of :data:`SPOOL_BASE`).
+        Values the user knows from the rig, held fixed (the model's base names:
+        :data:`SPOOL_BASE`, :data:`DYNAMIC_BASE`).
     model : str
-        The base model; only ``"spool"`` so far.
+        The base model, a key of :data:`MODELS` (``"spool"``, ``"dynamic"``).
     context : dict, optional
         Extra series, one value per row of ``measured``, to correlate the
         residual with (e.g. ``"B image row"``).
     candidates : dict, optional
-        The effect library (default :data:`CANDIDATES`).
+        The effect library (default: the model's own).
 
     Raises
     ------
     CranktrackError
         Another model, too few frames, or known values no model can meet.
     """
-    if model != "spool":
-        raise CranktrackError(f"the {model!r} model cannot be fitted yet; available: spool")
+    spec = MODELS.get(model)
+    if spec is None:
+        raise CranktrackError(f"the {model!r} model cannot be fitted yet; available: "
+                              f"{', '.join(MODELS)}")
     known = dict(known or {})
-    candidates = CANDIDATES if candidates is None else candidates
+    candidates = spec.candidates if candidates is None else candidates
     for col in ("t_s", "theta_deg"):
         if col not in measured:
             raise CranktrackError(f"the kinematics table has no {col} column")
@@ -639,27 +788,31 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
     t, deg = t_all[ok], deg_all[ok]
     theta = np.radians(deg)
     ctx = {k: np.asarray(v, float)[ok] for k, v in (context or {}).items()}
-    messages = []
-    held = dict(known)
-    if "speed_mm_s" not in known and not {"L1_mm", "L2_mm", "L3_0_mm"} & set(known):
-        # θ(t) is unchanged when every length and the speed scale together: one
-        # length must be held, and the frame |AC| is measured directly.
-        if "L1_mm" not in measured:
-            raise CranktrackError("with the speed unknown, give --known L1_mm (one length "
-                                  "fixes the scale)")
-        held["L1_mm"] = float(np.nanmedian(measured["L1_mm"]))
-        messages.append(f"L1_mm held at the measured |AC| = {held['L1_mm']:.3f} mm: "
-                        "with the speed unknown, one length must fix the scale")
-    guess = _spool_guess(t, theta, measured, held)
+    extra, messages = spec.hold(measured, known)
+    held = {**known, **extra}
+    guesses = spec.guesses(t, theta, measured, held)
+    guess = guesses[0]
     span = float(t[-1] - t[0])
     base_free = [replace(p, lower=t[0] - span, upper=t[-1]) if k == "start_s" else p
-                 for k, p in SPOOL_BASE.items() if k not in held]
+                 for k, p in spec.base.items() if k not in held]
     sig = measured["theta_deg_sigma"].to_numpy(float)[ok] if "theta_deg_sigma" in measured \
         else np.full(t.size, np.nan)
     tracker_deg = float(np.nanmedian(sig)) if np.isfinite(sig).any() else 0.0
     nyquist = 0.5 / float(np.median(np.diff(t)))
 
+    cache: dict[tuple, ModelFit | None] = {}
+
     def fit_with(effects: tuple[str, ...], start_from: dict[str, float]) -> ModelFit | None:
+        """The model with ``effects`` fitted from ``start_from`` (and the data's guesses);
+        the same request twice (the reference fit is round 1's when there is one
+        candidate) is fitted once."""
+        key = (tuple(sorted(effects)), tuple(sorted(start_from.items())))
+        if key not in cache:
+            cache[key] = _fit_with(effects, start_from)
+        fit = cache[key]
+        return None if fit is None else replace(fit, effects=effects)
+
+    def _fit_with(effects: tuple[str, ...], start_from: dict[str, float]) -> ModelFit | None:
         free = list(base_free)
         lists = []
         for name in effects:
@@ -672,19 +825,19 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
         # Each effect's starting values in turn (the longest list sets how many).
         width = max((len(x) for x in lists), default=1)
         effect_starts = [sum((x[i % len(x)] for x in lists), ()) for i in range(width)]
-        # The base fit tries a few start times; an effect's fit starts where the base
-        # ended and from the data's own first guess (a base fit that bent its lengths
-        # to mimic an effect can sit in a valley the effect cannot leave).
-        shifts = (0.0,) if "start_s" in held or effects else (0.0, -0.05 * span, 0.05 * span)
-        origins = [start_from] if start_from is guess else [start_from, guess]
-        starts = [[o[p.name] + (sh if p.name == "start_s" else 0.0) for p in base_free]
-                  + list(es) for es in effect_starts for sh in shifts for o in origins]
-        return _fit(t, theta, spool_theta, held, free, starts, effects)
+        # The base fit tries every guess; an effect's fit starts where the base ended
+        # and from the data's own first guess (a base fit that bent its lengths to
+        # mimic an effect can sit in a valley the effect cannot leave).
+        origins = (guesses if start_from is guess and not effects
+                   else [start_from] if start_from is guess else [start_from, guess])
+        starts = [[o[p.name] for p in base_free] + list(es)
+                  for es in effect_starts for o in origins]
+        return _fit(t, theta, spec.simulate, held, free, starts, effects, spec.diff_step)
 
     base = fit_with((), guess)
     if base is None:
-        raise CranktrackError("no spool model with these known values reproduces the measured "
-                              "angles (the linkage would not close); check the --known values")
+        raise CranktrackError(f"no {model} model with these known values reproduces the "
+                              "measured angles; check the --known values")
     def separable(c: Candidate) -> bool:
         return not c.needs_known or any(k in known for k in c.needs_known)
 
@@ -722,7 +875,7 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
                 continue
             alt = fit_with((*current.effects, c.name), current.values)
             if alt is not None:
-                tried.append((_score(c, rnd, current, alt, noise, t, spool_theta, nyquist),
+                tried.append((_score(c, rnd, current, alt, noise, t, spec.simulate, nyquist),
                               alt))
         if not tried:
             break

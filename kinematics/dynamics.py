@@ -30,6 +30,9 @@ from scipy.optimize import brentq
 
 from cranktrack.kinematics.crank_slider import l3_from_theta
 
+#: Angular speed (rad/s) over which the Coulomb friction term changes sign.
+COULOMB_SMOOTHING = 0.01
+
 
 @dataclass(frozen=True)
 class CrankDynamics:
@@ -43,6 +46,11 @@ class CrankDynamics:
     L2: float = 1.0
     theta0: float = np.pi
     eps: float = 0.05
+    #: Dry (Coulomb) friction at the pivot, as an angular deceleration (rad/s²):
+    #: ``− coulomb·tanh(θ'/ω_c)`` with ω_c = 0.01 rad/s, a smooth stand-in for
+    #: sign(θ') so the integrator need not chase the switch. Not in the thesis;
+    #: an effect real pivots have (0: none).
+    coulomb: float = 0.0
 
     @property
     def L3_0(self) -> float:
@@ -60,7 +68,9 @@ class CrankDynamics:
         L3 = l3_from_theta(th, self.L1, self.L2)
         with np.errstate(divide="ignore", invalid="ignore"):
             wire = self.k_s / self.I * self.L1 * self.L2 * np.sin(th) * (1.0 - self.L3_0 / L3)
-        return self.k_l / self.I * (self.theta0 - th) - self.k_d * np.asarray(omega) - wire
+        om = np.asarray(omega, float)
+        friction = self.coulomb * np.tanh(om / COULOMB_SMOOTHING) if self.coulomb else 0.0
+        return self.k_l / self.I * (self.theta0 - th) - self.k_d * om - wire - friction
 
     def daccel_dtheta(self, theta: ArrayLike) -> NDArray[np.float64]:
         """∂θ''/∂θ, analytic (the Jacobian's lower-left entry)."""

@@ -73,7 +73,14 @@ EFFECTS: dict[str, EffectInfo] = {
                                "track moves and v_B carries the frame's own velocity"),
     "pivot_hz": EffectInfo("physical", "Hz", "frequency of that shaking (default 5 Hz when "
                            "pivot_amp_mm is set)"),
+    "coulomb_rad_s2": EffectInfo("physical", "rad/s²", "(free scenario) dry friction at the "
+                                 "pivot: the swing shrinks by the same angle every half cycle "
+                                 "instead of by the same fraction, and the crank comes to rest "
+                                 "off the springs' equilibrium"),
 }
+
+#: Physical effects of the free-response scenario.
+FREE_ONLY = ("coulomb_rad_s2",)
 
 #: Effects that work on any scenario (the rest of the physical ones are the spool's).
 ANY_SCENARIO = ("pivot_amp_mm", "pivot_hz")

@@ -15,12 +15,13 @@ from cranktrack.synthetic.camera import Camera, PinholeCamera
 from cranktrack.synthetic.effects import (
     ANY_SCENARIO,
     EFFECTS,
+    FREE_ONLY,
     EffectedSpool,
     ShakenFrame,
     recording_times,
 )
 from cranktrack.synthetic.render import Style, draw_capsule, render_frame, to_uint8
-from cranktrack.synthetic.scenarios import Motion, Scenario, SpoolScenario
+from cranktrack.synthetic.scenarios import FreeScenario, Motion, Scenario, SpoolScenario
 from cranktrack.synthetic.truth import truth_table
 from cranktrack.synthetic.video import VideoWriter
 
@@ -169,10 +170,14 @@ def render_scene(
     ``on_frame(i, n)`` is called after each frame (for a progress bar).
     """
     style = style or Style()
-    folder = ensure_dir(out_dir)
     effects = dict(effects or {})
     physical = {k: v for k, v in effects.items()
-                if EFFECTS[k].kind == "physical" and k not in ANY_SCENARIO}
+                if EFFECTS[k].kind == "physical" and k not in ANY_SCENARIO + FREE_ONLY}
+    if "coulomb_rad_s2" in effects:
+        if not isinstance(scenario, FreeScenario):
+            raise CranktrackError("coulomb_rad_s2 applies to the free scenario")
+        scenario = replace(scenario, dynamics=replace(scenario.dynamics,
+                                                      coulomb=effects["coulomb_rad_s2"]))
     if physical:
         if not isinstance(scenario, SpoolScenario):
             raise CranktrackError(f"the effects {sorted(physical)} apply to the spool scenario")
@@ -180,6 +185,7 @@ def render_scene(
     if effects.get("pivot_amp_mm", 0) > 0:
         scenario = ShakenFrame(scenario, effects["pivot_amp_mm"], effects.get("pivot_hz", 5.0))
     camera = camera or scenario_camera(scenario, settings.size)
+    folder = ensure_dir(out_dir)  # only once the request is known to be good
     keep, stamps = recording_times(settings.n_frames, settings.fps, effects, settings.seed)
     n = len(keep)
     t = keep / settings.fps  # when each written frame was really taken

@@ -128,10 +128,10 @@ def rendered(tmp_path_factory):
     root = tmp_path_factory.mktemp("undeclared")
     made = {}
 
-    def make(name: str, effects: tuple[str, ...] = (), seed: int = 0):
+    def make(name: str, effects: tuple[str, ...] = (), seed: int = 0, scenario: str = "spool"):
         if name not in made:
             scene, run = root / name / "scene", root / name / "run"
-            args = ["synth", "spool", "--out", str(scene), *RENDER, "--seed", str(seed)]
+            args = ["synth", scenario, "--out", str(scene), *RENDER, "--seed", str(seed)]
             for e in effects:
                 args += ["--effect", e]
             assert main(args) == 0
@@ -219,3 +219,18 @@ def test_an_uncalibrated_lens_is_not_forced_onto_a_candidate(rendered):
     assert report["camera_effect_suspected"]
     assert "B image row" in report["unexplained"]
     assert "calibrate the camera" in report["unexplained"]
+
+
+@pytest.mark.parametrize("coulomb", [0.0, 0.5])
+def test_the_dynamic_model_finds_dry_friction_in_a_free_response(rendered, coulomb):
+    effects = (f"coulomb_rad_s2={coulomb}",) if coulomb else ()
+    scene, run = rendered(f"free{coulomb}", effects, scenario="free")
+    assert main(["fit", str(run), "--model", "dynamic"]) == 0
+    report = json.loads((run / "fit" / "report.json").read_text())
+    assert report["model"] == "dynamic"
+    assert report["rmse_after_deg"] <= 1.5 * floor_deg(scene, run)
+    if coulomb:
+        assert report["effects"] == ["coulomb_rad_s2"]
+        recovered(report, "coulomb_rad_s2", coulomb)
+    else:
+        assert report["effects"] == []

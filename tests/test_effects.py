@@ -160,3 +160,22 @@ def test_pivot_motion_moves_the_frame_but_not_the_crank_angle(tmp_path):
     err = run.kinematics["theta_deg"] - truth["theta_deg"]
     assert np.sqrt(np.mean(err**2)) < 0.1
     assert run.tracks["A_y_mm"].std() == pytest.approx(amp / np.sqrt(2), rel=0.15)
+
+
+def test_coulomb_friction_shrinks_each_swing_by_the_same_angle(tmp_path):
+    from cranktrack.kinematics.dynamics import CrankDynamics
+
+    # A linear spring (no wire) and dry friction only: every half swing loses 2·f_c/k_l.
+    k_l, fc = 4.0, 0.2
+    d = CrankDynamics(I=1.0, k_l=k_l, k_s=0.0, k_d=0.0, theta0=np.pi / 2, coulomb=fc)
+    t = np.linspace(0, 6, 60001)
+    theta, omega = d.simulate(t, np.pi / 2 - 0.5)
+    turning = np.flatnonzero(np.sign(omega[1:]) != np.sign(omega[:-1]))
+    amplitude = np.abs(theta[turning] - np.pi / 2)
+    np.testing.assert_allclose(-np.diff(amplitude)[:3], 2 * fc / k_l, rtol=0.02)
+    # The free scenario takes it as an effect, and only that scenario does.
+    assert parse_effects(["coulomb_rad_s2=0.5"]) == {"coulomb_rad_s2": 0.5}
+    with pytest.raises(CranktrackError, match="free scenario"):
+        render_scene(SpoolScenario(), tmp_path / "never", RenderSettings(),
+                     effects={"coulomb_rad_s2": 0.5})
+    assert not (tmp_path / "never").exists()  # a refused request leaves nothing behind
