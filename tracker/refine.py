@@ -166,8 +166,12 @@ def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
     except np.linalg.LinAlgError:
         return Centre(np.nan, np.nan, np.nan, radius, False)
     moved = np.hypot(p[0] - guess[0], p[1] - guess[1])
-    ok = bool(np.all(np.isfinite(p)) and moved < radius and 0 < p[2] < 3 * radius)
-    sigma = float(np.sqrt(0.5 * (cov[0, 0] + cov[1, 1])))
+    var = 0.5 * (cov[0, 0] + cov[1, 1])
+    # A near-singular fit can invert to a negative variance: no centre can be trusted then.
+    well_posed = bool(np.isfinite(var) and var >= 0)
+    ok = bool(np.all(np.isfinite(p)) and moved < radius and 0 < p[2] < 3 * radius
+              and well_posed)
+    sigma = float(np.sqrt(var)) if well_posed else float("nan")
     return Centre(float(p[0]), float(p[1]), sigma, float(p[2]), ok, float(np.sqrt(s2)),
                   float(p[4]), tuple(float(v) for v in p), float(A.sum()))
 
