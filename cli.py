@@ -179,14 +179,16 @@ def cmd_thermal_id(args: argparse.Namespace) -> int:
               "dh_thermocouple": "Δh, timed by thermocouple"}
     for key, label in labels.items():
         e = getattr(result, key)
-        rows.append([label, f"{e.value:.5g}", "–" if not np.isfinite(e.sigma) else
-                     f"{e.sigma:.2g}", str(e.n), e.unit])
+        value = f"{e.value:.5g}" if e.n else "not measured"
+        rows.append([label, value, "–" if not np.isfinite(e.sigma) else f"{e.sigma:.2g}",
+                     str(e.n), e.unit])
     print(f"ambient {result.T_amb_C:.2f} °C; wire d {args.diameter_um:g} µm, "
           f"L {args.length_mm:g} mm, A_s {args.As:g} °C, A_f {args.Af:g} °C")
     print(_format_table(rows))
     print("n: steady stretches for R and h, step tests for c_p and Δh (1σ is their spread, – "
-          "for a single test). c_p and Δh are timed by the displacement (contraction start/end, "
-          "thesis Fig. 4.13); the thermocouple rows show what the thermocouple's lag does.")
+          "for a single test; Δh needs a step that completes the contraction, past A_f). "
+          "c_p and Δh are timed by the displacement (contraction start/end, thesis Fig. "
+          "4.13); the thermocouple rows show what the thermocouple's lag does.")
     if args.out:
         from cranktrack.files import write_json_atomic
 
