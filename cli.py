@@ -600,7 +600,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="switch on an effect the models lack (repeatable): slack_mm, "
                         "spool_growth_per_s, return_spring_hz, return_spring_zeta, "
                         "dropped_frames, fps_label, k1, k2, tilt_deg, exposure_s, readout_s, "
-                        "pivot_amp_mm, pivot_hz, coulomb_rad_s2 (free)")
+                        "pivot_amp_mm, pivot_hz, coulomb_rad_s2 (free), thermal_lag_s (sma)")
     p.add_argument("--declare-effects", action="store_true",
                    help="list the effects in scene.json (off: data with an undeclared effect)")
     p.add_argument("--theta-init-deg", type=float, default=70.0,
@@ -698,12 +698,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("run", help="run folder written by `cranktrack track`")
     p.add_argument("--model", choices=["spool", "sma", "dynamic"], default="spool",
                    help="base model (spool: thesis §2.5.2; dynamic: the free response of "
-                   "eq. 3.28, e.g. a `synth free` run; sma is not yet fittable)")
+                   "eq. 3.28, e.g. a `synth free` run; sma: the current-heated bed of §2.5.3 "
+                   "with the heat model of chapter 4, e.g. a `synth sma` run)")
     p.add_argument("--known", action="append", metavar="NAME=VALUE",
                    help="a value known from the rig, held fixed (repeatable). spool: L1_mm, "
                    "L2_mm, L3_0_mm, speed_mm_s, start_s (drive switched on, video clock), "
                    "stroke_mm; dynamic: theta_init_deg, omega_init_rad_s, k_l, k_s, k_d "
-                   "(per unit inertia), theta_rest_deg, L1_mm, L2_mm")
+                   "(per unit inertia), theta_rest_deg, L1_mm, L2_mm; sma: current_A and "
+                   "current_on_s (required), current_off_s, ambient_C, L1_mm, L2_mm, "
+                   "theta0_deg, recovery_strain, h_W_m2K, As_C, Af_C, Ms_C, Mf_C")
     p.add_argument("--rerun", nargs="?", const="RUN/run.rrd", metavar="FILE|spawn",
                    help="also write the run's Rerun recording with the fit (default "
                    "RUN/run.rrd, or FILE), or open a live viewer with `spawn`")

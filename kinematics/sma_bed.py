@@ -61,6 +61,10 @@ class SMABed:
     inertia_kg_m2: float = 2e-6
     damping_Nms_rad: float = 5e-3
     thermal: SMAWire = field(default_factory=SMAWire)
+    #: An effect the lumped model lacks (0: none): the wire's strain follows its
+    #: martensite fraction through a first-order lag of this time constant, s (heat
+    #: drawn off at the clamps, a temperature that is not uniform along the wire).
+    thermal_lag_s: float = 0.0
 
     def __post_init__(self) -> None:
         if not 0 < self.theta0_deg < 180:
@@ -117,6 +121,54 @@ class SMABed:
         return torque / self.inertia_kg_m2
 
 
+def lagged(x: NDArray[np.float64], t: NDArray[np.float64], tau_s: float) -> NDArray[np.float64]:
+    """First-order lag of a signal sampled at ``t`` (exact for a signal linear between
+    samples); ``tau_s`` = 0 returns it unchanged."""
+    if tau_s <= 0:
+        return x
+    out = np.empty_like(x)
+    out[0] = x[0]
+    dt = np.diff(t)
+    a = np.exp(-dt / tau_s)
+    # y' = (x − y)/τ with x linear on each step: y1 = a·y0 + (1 − a)·x1 − (x1 − x0)·b
+    b = tau_s / dt * (1.0 - a) - a
+    for k in range(1, x.size):
+        out[k] = a[k - 1] * out[k - 1] + (1.0 - a[k - 1]) * x[k] - (x[k] - x[k - 1]) * b[k - 1]
+    return out
+
+
+def quasi_static_theta(bed: SMABed, xi: NDArray[np.float64],
+                       t_s: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """θ (rad) where the torques balance, for each martensite fraction.
+
+    The crank's inertia is left out (its own frequency against the stiff wire is
+    hundreds of Hz): bisection between a slack wire (the spring wins) and θ0 + 0.3
+    rad (the wire wins), 60 halvings. With the times ``t_s`` the damper's share is
+    added to first order: δθ = −c·θ' / k, k the torque's stiffness in θ (a lag of
+    c/k, a few ms, which is a tenth of a degree at full speed).
+    """
+    xi = np.asarray(xi, float)
+    k_b, theta_b = bed.bias_k_Nm_rad, bed.bias_rest_rad
+
+    def torque(th: NDArray) -> NDArray:
+        return k_b * (theta_b - th) - bed.wire_force_N(th, xi) * bed.moment_arm_m(th)
+
+    lo = np.full(xi.shape, 0.05)
+    hi = np.full(xi.shape, np.radians(bed.theta0_deg) + 0.3)
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        up = torque(mid) > 0  # the spring still wins: the balance lies at a larger θ
+        lo = np.where(up, mid, lo)
+        hi = np.where(up, hi, mid)
+    theta = 0.5 * (lo + hi)
+    if t_s is None or bed.damping_Nms_rad == 0:
+        return theta
+    h = 1e-6
+    stiffness = -(torque(theta + h) - torque(theta - h)) / (2 * h)
+    rate = np.gradient(theta, np.asarray(t_s, float))
+    return theta - bed.damping_Nms_rad * rate / np.maximum(stiffness, 1e-12)
+
+
 def _scalar_accel(bed: SMABed) -> Callable[[float, float, float], float]:
     """:meth:`SMABed.accel` for one state in plain floats: the integrator calls it
     hundreds of thousands of times, where numpy's per-call cost dominates."""
@@ -162,6 +214,7 @@ def simulate_bed(bed: SMABed, current: CurrentSteps, t_s: ArrayLike,
         raise CranktrackError("times must be an increasing array of at least 2")
     fine = np.arange(0.0, t[-1] + 2 * thermal_step_s, thermal_step_s)
     heat = simulate_wire(bed.wire, current, fine)
+    heat = replace(heat, xi=lagged(heat.xi, fine, bed.thermal_lag_s))
     # Between current switches ξ(t) is smooth: a cubic spline through the thermal
     # samples keeps the solver from stumbling on the kinks of a linear interpolant.
     edges = sorted({0.0, float(t[-1]), *[s for s in current.times_s if 0.0 < s < t[-1]]})

@@ -73,6 +73,10 @@ EFFECTS: dict[str, EffectInfo] = {
                                "track moves and v_B carries the frame's own velocity"),
     "pivot_hz": EffectInfo("physical", "Hz", "frequency of that shaking (default 5 Hz when "
                            "pivot_amp_mm is set)"),
+    "thermal_lag_s": EffectInfo("physical", "s", "(sma scenario) the wire's strain follows "
+                                "its transformation through a first-order lag: the crank "
+                                "answers each switch of the current later and more smoothly "
+                                "than the lumped heat model says"),
     "coulomb_rad_s2": EffectInfo("physical", "rad/s²", "(free scenario) dry friction at the "
                                  "pivot: the swing shrinks by the same angle every half cycle "
                                  "instead of by the same fraction, and the crank comes to rest "
@@ -81,6 +85,8 @@ EFFECTS: dict[str, EffectInfo] = {
 
 #: Physical effects of the free-response scenario.
 FREE_ONLY = ("coulomb_rad_s2",)
+#: Physical effects of the SMA bed.
+SMA_ONLY = ("thermal_lag_s",)
 
 #: Effects that work on any scenario (the rest of the physical ones are the spool's).
 ANY_SCENARIO = ("pivot_amp_mm", "pivot_hz")

@@ -16,12 +16,19 @@ from cranktrack.synthetic.effects import (
     ANY_SCENARIO,
     EFFECTS,
     FREE_ONLY,
+    SMA_ONLY,
     EffectedSpool,
     ShakenFrame,
     recording_times,
 )
 from cranktrack.synthetic.render import Style, draw_capsule, render_frame, to_uint8
-from cranktrack.synthetic.scenarios import FreeScenario, Motion, Scenario, SpoolScenario
+from cranktrack.synthetic.scenarios import (
+    FreeScenario,
+    Motion,
+    Scenario,
+    SMAScenario,
+    SpoolScenario,
+)
 from cranktrack.synthetic.truth import truth_table
 from cranktrack.synthetic.video import VideoWriter
 
@@ -172,7 +179,12 @@ def render_scene(
     style = style or Style()
     effects = dict(effects or {})
     physical = {k: v for k, v in effects.items()
-                if EFFECTS[k].kind == "physical" and k not in ANY_SCENARIO + FREE_ONLY}
+                if EFFECTS[k].kind == "physical" and k not in ANY_SCENARIO + FREE_ONLY + SMA_ONLY}
+    if "thermal_lag_s" in effects:
+        if not isinstance(scenario, SMAScenario):
+            raise CranktrackError("thermal_lag_s applies to the sma scenario")
+        scenario = replace(scenario, bed=replace(scenario.bed,
+                                                 thermal_lag_s=effects["thermal_lag_s"]))
     if "coulomb_rad_s2" in effects:
         if not isinstance(scenario, FreeScenario):
             raise CranktrackError("coulomb_rad_s2 applies to the free scenario")

@@ -113,7 +113,7 @@ def test_known_values_are_checked():
         with pytest.raises(CranktrackError):
             parse_known(bad)
     with pytest.raises(CranktrackError, match="cannot be fitted yet"):
-        parse_known([], "sma")
+        parse_known([], "antagonistic")
     with pytest.raises(CranktrackError, match="fewer than 12"):
         close_loop(series().iloc[:8], KNOWN)
 
@@ -232,5 +232,26 @@ def test_the_dynamic_model_finds_dry_friction_in_a_free_response(rendered, coulo
     if coulomb:
         assert report["effects"] == ["coulomb_rad_s2"]
         recovered(report, "coulomb_rad_s2", coulomb)
+    else:
+        assert report["effects"] == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("lag", [0.0, 0.2])
+def test_the_sma_model_finds_a_thermal_lag(tmp_path, lag):
+    # Slow (≈ 45 s each: a 640×360 render and a loop whose every simulation runs the
+    # heat model): `pytest -m slow`.
+    scene, run = tmp_path / "scene", tmp_path / "run"
+    args = ["synth", "sma", "--out", str(scene), "--size", "640x360", "--seconds", "5"]
+    assert main([*args, *(["--effect", f"thermal_lag_s={lag}"] if lag else [])]) == 0
+    assert main(["track", str(scene / "video.mp4"), "--out", str(run),
+                 "--known-length", "A-C=305"]) == 0
+    assert main(["fit", str(run), "--model", "sma", "--known", "current_A=1.3",
+                 "--known", "current_on_s=0.5", "--known", "current_off_s=3"]) == 0
+    report = json.loads((run / "fit" / "report.json").read_text())
+    assert report["rmse_after_deg"] <= 1.5 * floor_deg(scene, run)
+    if lag:
+        assert report["effects"][0] == "thermal_lag_s"
+        recovered(report, "thermal_lag_s", lag)
     else:
         assert report["effects"] == []

@@ -76,3 +76,31 @@ def test_sma_scenario_renders_and_tracks(tmp_path):
     # 640×360: the crank is only 39 px long (L2 = 24.1 mm); 0.05 px at B is 0.07°.
     assert np.sqrt(np.mean(err**2)) < 0.15
     assert run.kinematics["theta_deg"].min() == pytest.approx(truth["theta_deg"].min(), abs=0.3)
+
+
+def test_the_fits_quasi_static_sma_bed_follows_the_equation_of_motion():
+    from cranktrack.kinematics.discrepancy import sma_theta
+
+    bed = SMABed()
+    t = np.arange(0, 5, 1 / 30)
+    full = simulate_bed(bed, CurrentSteps((0.5, 3.0), (1.3, 0.0)), t)
+    w = bed.thermal
+    fast = sma_theta({"current_A": 1.3, "current_on_s": 0.5, "current_off_s": 3.0,
+                      "ambient_C": w.T_amb_C, "L1_mm": bed.L1, "L2_mm": bed.L2,
+                      "theta0_deg": bed.theta0_deg, "recovery_strain": bed.recovery_strain,
+                      "h_W_m2K": w.h_W_m2K, "As_C": w.As_C, "Af_C": w.Af_C, "Ms_C": w.Ms_C,
+                      "Mf_C": w.Mf_C}, t)
+    # Inertia left out, the damper to first order: well under the tracker's 0.07° here.
+    assert np.degrees(np.max(np.abs(fast - full.theta))) < 0.05
+
+
+def test_thermal_lag_delays_the_crank_but_not_where_it_ends():
+    t = np.arange(0, 5, 1 / 100)
+    plain = SMAScenario().motion(t)
+    lag = SMAScenario(bed=SMABed(thermal_lag_s=0.2)).motion(t)
+    def halfway(m):
+        th = np.degrees(m.theta)
+        return t[np.argmax(th < 0.5 * (th[0] + th.min()))]
+    assert 0.1 < halfway(lag) - halfway(plain) < 0.3  # about one time constant later
+    assert np.degrees(lag.theta[t < 3].min()) == pytest.approx(
+        np.degrees(plain.theta[t < 3].min()), abs=0.05)
