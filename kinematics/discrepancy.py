@@ -294,8 +294,9 @@ def _spool_guesses(t: NDArray, theta: NDArray, measured: pd.DataFrame,
                       for sh in (-0.05 * span, 0.05 * span)]
 
 
-def _dynamic_hold(measured: pd.DataFrame, known: dict[str, float]
-                  ) -> tuple[dict[str, float], list[str]]:
+def _hold_links(measured: pd.DataFrame, known: dict[str, float], why: str = ""
+                ) -> tuple[dict[str, float], list[str]]:
+    """L1 and L2 held at the measured |AC| and |AB| unless known."""
     out, notes = {}, []
     for col, what in (("L1_mm", "|AC|"), ("L2_mm", "|AB|")):
         if col not in known:
@@ -303,9 +304,14 @@ def _dynamic_hold(measured: pd.DataFrame, known: dict[str, float]
             if value is None:
                 raise CranktrackError(f"give --known {col}: the run has no measured {what}")
             out[col] = value
-            notes.append(f"{col} held at the measured {what} = {value:.3f} mm (the wire "
-                         "stiffness absorbs what a free length would)")
+            notes.append(f"{col} held at the measured {what} = {value:.3f} mm{why}")
     return out, notes
+
+
+def _dynamic_hold(measured: pd.DataFrame, known: dict[str, float]
+                  ) -> tuple[dict[str, float], list[str]]:
+    return _hold_links(measured, known, " (the wire stiffness absorbs what a free length "
+                       "would)")
 
 
 def _dynamic_guesses(t: NDArray, theta: NDArray, measured: pd.DataFrame,
@@ -395,14 +401,8 @@ def _sma_hold(measured: pd.DataFrame, known: dict[str, float]
     if "ambient_C" not in known:
         out["ambient_C"] = SMAWire().T_amb_C
         notes.append(f"ambient_C held at {out['ambient_C']:g} °C (thesis Table 4.2)")
-    for col, what in (("L1_mm", "|AC|"), ("L2_mm", "|AB|")):
-        if col not in known:
-            value = _measured_median(measured, col)
-            if value is None:
-                raise CranktrackError(f"give --known {col}: the run has no measured {what}")
-            out[col] = value
-            notes.append(f"{col} held at the measured {what} = {value:.3f} mm")
-    return out, notes
+    links, link_notes = _hold_links(measured, known)
+    return {**out, **links}, notes + link_notes
 
 
 def _sma_guesses(t: NDArray, theta: NDArray, measured: pd.DataFrame,
