@@ -1,13 +1,18 @@
 """Close the loop between measured θ(t) and a model: residual, missing effect, before/after.
 
+Three base models (:data:`MODELS`): ``spool`` (the rigid bed of thesis §2.5.2),
+``dynamic`` (the free response of eq. 3.28) and ``sma`` (the current-heated bed of
+§2.5.3 with the heat model of chapter 4), each with its own effect library.
+
 1. The base model is fitted by simulation (output error): least squares of
    measured minus simulated θ over every parameter the user did not fix
    (``known``), from several starts.
 2. Its residual is diagnosed: RMS, largest, fit%, Ljung–Box whiteness, and
    what it correlates with (time, θ, ω, the sign of ω, the drive's phases,
    the marker's place in the image).
-3. Every candidate effect (:data:`CANDIDATES`, each a model extension with
-   its own physical parameters) is fitted on top of the current model.
+3. Every candidate effect of the model (e.g. :data:`CANDIDATES` for the
+   spool, each a model extension with its own physical parameters) is fitted
+   on top of the current model.
 4. The best is accepted only if ΔBIC > 20 (:data:`BIC_THRESHOLD`), its
    parameter's 95 % interval excludes "no effect", the value is physically
    plausible and its imprint on θ rises above the noise; then the rest are
@@ -18,10 +23,13 @@ Tracker errors on compressed video are mostly a slowly varying bias (the
 same marker at the same place gives the same error), so the residual of a
 right model is not white. Counting every frame as independent evidence
 would then accept effects that merely bend around that bias. The BIC and the
-parameter intervals therefore use an effective number of samples
-``n·(1 − ρ)/(1 + ρ)`` from the lag-1 autocorrelation ρ of the residual
-(the AR(1) variance inflation), which keeps null data from "discovering"
-effects while an effect that is really there still wins by a wide margin.
+parameter intervals therefore count independent evidence
+(:func:`independent_frames`): each stretch where the mechanism stands still
+once, moving frames as ``n·(1 − ρ)/(1 + ρ)`` from the lag-1 autocorrelation
+ρ (the AR(1) variance inflation) of the richest model's residual or of the
+rigid |AB| link, whichever is more correlated. That keeps null data from
+"discovering" effects while an effect that is really there still wins by a
+wide margin.
 
 Candidates a model cannot tell apart are handled openly: an effect that
 needs a known value to be separable (a dead time is a later start unless the
