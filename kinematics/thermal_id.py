@@ -235,8 +235,10 @@ def identify(log: pd.DataFrame, wire: SMAWire | None = None, T_amb_C: float | No
             raise CranktrackError("no stretch at zero current to read the ambient from; "
                                   "give the ambient temperature")
         T_amb_C = float(np.median(off))
-    # Steady states only where the stretch is long enough to settle and the wire did
-    # not contract during it (a transformation still running is not steady).
+    # Steady states only where the stretch lasts long enough to settle (its last
+    # quarter is averaged): over a second, several of the wire's time constants.
+    # Eq. 4.26 holds at steady state whatever the phase, so no stretch is left out
+    # for having transformed.
     steady = [p for p in on if p.t1_s - p.t0_s > 1.0]
     k, _, k_sd = _line_fit(np.array([p.current_A**2 for p in steady]),
                            np.array([p.temperature_C - T_amb_C for p in steady]), origin=True)
