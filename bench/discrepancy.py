@@ -39,6 +39,7 @@ EFFECTS = {
     "spool_growth_per_s": ("spool_growth_per_s", (0.03, 0.1), (0.003, 0.01, 0.02, 0.05)),
     "return_spring_hz": ("return_spring_hz", (3.0, 8.0), (12.0, 10.0, 6.0)),
     "fps_label": ("clock_scale", (30.3, 31.0), (30.03, 30.1, 30.3)),
+    "wire_stretch_mm": ("wire_stretch_mm", (0.1, 0.5), (0.01, 0.03, 0.1)),
 }
 
 

@@ -146,6 +146,14 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
               ((0.5, 0.1), (1.0, 0.1), (2.0, 0.1), (4.0, 0.1), (8.0, 0.1)), np.inf,
               (0.05, np.inf),
               "after the drive stops the crank overshoots and rings about its final angle"),
+    Candidate("wire_stretch_mm", "physical",
+              (Parameter("wire_stretch_mm", "mm", 0.0, 10.0),), ((0.1,), (0.5,)), 0.0,
+              (0.0, 10.0),
+              "the crank lags the kinematic model by an angle that grows as the return "
+              "spring winds up and the moment arm shrinks: the wire stretches under its pull",
+              also_looks_like="a compliant mounting of the spool or the pivot; a stiffer "
+              "(steel) wire, or a lighter return spring, shrinks a wire stretch and nothing "
+              "else"),
     Candidate("clock_scale", "recording", (Parameter("clock_scale", "1", 0.2, 5.0),),
               ((1.02,), (0.98,)), 1.0, (0.2, 5.0),
               "every rate is off by one factor: the container's frame rate is not the "
@@ -194,7 +202,8 @@ def spool_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[n
     theta = spool_motion(drive, tt, slack_mm=v.get("slack_mm", 0.0),
                          growth_per_s=v.get("spool_growth_per_s", 0.0),
                          ring_hz=v.get("return_spring_hz", 0.0),
-                         ring_zeta=v.get("return_spring_zeta", 0.1), rates=False)[0]
+                         ring_zeta=v.get("return_spring_zeta", 0.1), rates=False,
+                         stretch_mm=v.get("wire_stretch_mm", 0.0))[0]
     if not np.all(np.isfinite(theta)):
         raise CranktrackError("the linkage does not close for these values")
     return theta
@@ -757,6 +766,9 @@ class LoopResult:
                               if top else ""))
             if self.links.get("camera_effect_suspected"):
                 unexplained += "; " + self.links["reading"]
+            if self.effects:
+                unexplained += ("; the accepted effects improve the fit but do not account for "
+                                "it, so they may stand in for something not in the library")
         return {
             "model": self.model,
             "known": self.known,

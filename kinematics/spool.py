@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cranktrack.errors import CranktrackError
-from cranktrack.kinematics.crank_slider import CrankSlider, SliderState, crank_state
+from cranktrack.kinematics.crank_slider import CrankSlider, SliderState, crank_state, l3_from_theta
 
 #: Thesis Table 2.2, mm and mm/s.
 TABLE_2_2 = {"L1": 160.8, "L2": 72.4, "L3_0": 105.4, "speed_mm_s": 14.0}
@@ -82,9 +82,35 @@ class SpoolDrive:
         return SliderState(L3=L3, L3_rate=rate, L3_accel=accel)
 
 
+def stretched_theta(drive: SpoolDrive, theta: NDArray[np.float64], stretch_mm: float
+                    ) -> NDArray[np.float64]:
+    """θ (rad) when the wire stretches under the return spring's pull.
+
+    The spring is taken as pre-wound one turn past θ0, so the wire's tension is
+    ∝ (θ0 + 2π − θ) / arm(θ) with arm = dL3/dθ = L1·L2·sin θ / L3, and the stretch
+    ∝ tension, ``stretch_mm`` at θ0 (already inside ``L3_0``). The wire's actual
+    length is the kinematic one (from ``theta``) plus the change in stretch; a fixed
+    point, since the stretch is small beside the wire.
+    """
+    d = drive
+    th0 = float(d.bed.theta(d.L3_0))
+    th_t = th0 + 2.0 * np.pi
+    arm0 = d.L1 * d.L2 * np.sin(th0) / d.L3_0
+
+    def stretch(th: NDArray) -> NDArray:
+        arm = d.L1 * d.L2 * np.sin(th) / l3_from_theta(th, d.L1, d.L2)
+        return stretch_mm * ((th_t - th) / arm) / ((th_t - th0) / arm0)
+
+    L3_kin = l3_from_theta(theta, d.L1, d.L2)
+    out = np.asarray(theta, float)
+    for _ in range(30):
+        out = d.bed.theta(L3_kin - stretch_mm + stretch(out))
+    return out
+
+
 def spool_motion(drive: SpoolDrive, t_s: ArrayLike, slack_mm: float = 0.0,
                  growth_per_s: float = 0.0, ring_hz: float = 0.0, ring_zeta: float = 0.1,
-                 rates: bool = True
+                 rates: bool = True, stretch_mm: float = 0.0
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """θ, ω, α (rad, rad/s, rad/s²) of the spool bed with effects the plain model lacks.
 
@@ -95,7 +121,9 @@ def spool_motion(drive: SpoolDrive, t_s: ArrayLike, slack_mm: float = 0.0,
     stop the crank rings about its final angle (inertia against the return
     spring), its velocity continuous at the stop. With all at 0 this is the
     plain model. ``rates=False`` skips ω and α (returned as NaN) for a fit
-    that needs only θ, at a third of the cost.
+    that needs only θ, at a third of the cost. ``stretch_mm``: the wire
+    stretches under the return spring (:func:`stretched_theta`); then only θ is
+    given and ω, α are NaN (difference θ(t) for them).
     """
     t = np.asarray(t_s, dtype=float)
     d, g = drive, growth_per_s
@@ -134,4 +162,7 @@ def spool_motion(drive: SpoolDrive, t_s: ArrayLike, slack_mm: float = 0.0,
         omega[after] = A * env * (wd * cos - ring_zeta * wn * sin)
         alpha[after] = A * env * (((ring_zeta * wn) ** 2 - wd**2) * sin
                                   - 2 * ring_zeta * wn * wd * cos)
+    if stretch_mm > 0:
+        theta = stretched_theta(d, theta, stretch_mm)
+        omega = alpha = np.full_like(theta, np.nan)
     return theta, omega, alpha

@@ -45,6 +45,11 @@ EFFECTS: dict[str, EffectInfo] = {
         "physical", "Hz",
         "when the spool stops the crank does not stop dead: it overshoots and rings about its "
         "final angle at this frequency (inertia against the torsion spring, thesis Fig. 2.36)"),
+    "wire_stretch_mm": EffectInfo(
+        "physical", "mm",
+        "the wire stretches under the return spring's pull (this much at the start): the "
+        "crank lags the kinematic model by an angle that grows as the spring winds up and "
+        "the moment arm shrinks"),
     "return_spring_zeta": EffectInfo(
         "physical", "1",
         "damping ratio of that ringing (default 0.1 when return_spring_hz is set)"),
@@ -130,11 +135,24 @@ class EffectedSpool:
 
     def motion(self, t_s: ArrayLike) -> Motion:
         t = np.asarray(t_s, dtype=float)
-        d, e = self.base.drive, self.effects
-        theta, omega, alpha = spool_motion(
-            d, t, slack_mm=e.get("slack_mm", 0.0), growth_per_s=e.get("spool_growth_per_s", 0.0),
-            ring_hz=e.get("return_spring_hz", 0.0), ring_zeta=e.get("return_spring_zeta", 0.1))
+        d = self.base.drive
+        if self.effects.get("wire_stretch_mm", 0) > 0:
+            # A stretching wire gives θ only: ω and α by central differences of θ(t)
+            # (h = 0.1 ms), exact enough for truth away from the drive's start and stop.
+            h = 1e-4
+            theta, ahead, behind = (self._kinematic(x)[0] for x in (t, t + h, t - h))
+            omega = (ahead - behind) / (2 * h)
+            alpha = (ahead - 2 * theta + behind) / h**2
+            return motion_from_angle(t, theta, omega, alpha, d.L1, d.L2)
+        theta, omega, alpha = self._kinematic(t)
         return motion_from_angle(t, theta, omega, alpha, d.L1, d.L2)
+
+    def _kinematic(self, t: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        d, e = self.base.drive, self.effects
+        return spool_motion(
+            d, t, slack_mm=e.get("slack_mm", 0.0), growth_per_s=e.get("spool_growth_per_s", 0.0),
+            ring_hz=e.get("return_spring_hz", 0.0), ring_zeta=e.get("return_spring_zeta", 0.1),
+            stretch_mm=e.get("wire_stretch_mm", 0.0))
 
     def extent_mm(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         lo, hi = self.base.extent_mm()

@@ -48,6 +48,7 @@ def recovered(report: dict, name: str, truth: float, off: float = 0.0) -> None:
     ({"spool_growth_per_s": 0.1}, "spool_growth_per_s"),
     ({"return_spring_hz": 3.0, "return_spring_zeta": 0.1}, "return_spring_hz"),
     ({"clock_scale": 1.03}, "clock_scale"),
+    ({"wire_stretch_mm": 0.5}, "wire_stretch_mm"),
 ])
 def test_each_effect_in_the_library_is_named_and_measured(effect, first):
     report = close_loop(series(effect), KNOWN).to_dict()
@@ -163,6 +164,7 @@ def fit(run, known: dict) -> dict:
     (("slack_mm=1",), ["slack_mm"], {"slack_mm": 1.0}),
     (("spool_growth_per_s=0.1",), ["spool_growth_per_s"], {"spool_growth_per_s": 0.1}),
     (("return_spring_hz=3",), ["return_spring_hz"], {"return_spring_hz": 3.0}),
+    (("wire_stretch_mm=0.5",), ["wire_stretch_mm"], {"wire_stretch_mm": 0.5}),
     (("slack_mm=1", "return_spring_hz=3"), ["slack_mm", "return_spring_hz"],
      {"slack_mm": 1.0, "return_spring_hz": 3.0}),
 ])

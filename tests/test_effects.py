@@ -179,3 +179,34 @@ def test_coulomb_friction_shrinks_each_swing_by_the_same_angle(tmp_path):
         render_scene(SpoolScenario(), tmp_path / "never", RenderSettings(),
                      effects={"coulomb_rad_s2": 0.5})
     assert not (tmp_path / "never").exists()  # a refused request leaves nothing behind
+
+
+def test_wire_stretch_makes_the_crank_lag_where_the_moment_arm_is_small():
+    from scipy.optimize import brentq
+
+    from cranktrack.kinematics.crank_slider import l3_from_theta
+
+    s0 = 0.5
+    m = EffectedSpool(SpoolScenario(), {"wire_stretch_mm": s0}).motion(T)
+    plain = SpoolScenario().motion(T)
+    assert m.theta[0] == pytest.approx(plain.theta[0], abs=1e-12)  # the stretch is in L3_0
+    # At rest after the stop: the wire is the kinematic length minus the initial stretch
+    # plus the stretch under the spring there (tension ∝ (θ0 + 2π − θ)/arm(θ)).
+    d = SpoolScenario().drive
+    th0 = float(BED.theta(d.L3_0))
+
+    def arm(th):
+        return d.L1 * d.L2 * np.sin(th) / l3_from_theta(th, d.L1, d.L2)
+
+    def stretch(th):
+        return s0 * (th0 + 2 * np.pi - th) / arm(th) / ((2 * np.pi) / arm(th0))
+
+    L3_kin = d.L3_0 - d.stroke_mm
+    final = brentq(lambda th: l3_from_theta(th, d.L1, d.L2) - (L3_kin - s0 + stretch(th)),
+                   1e-3, th0)
+    assert m.theta[-1] == pytest.approx(final, abs=1e-9)
+    lag = np.degrees(m.theta - plain.theta)
+    assert 0 < lag[1500] < lag[-1]  # the lag grows as the crank closes and the arm shrinks
+    moving = (T > 0.6) & (T < 1.5)
+    np.testing.assert_allclose(np.gradient(m.theta, T)[moving], m.omega[moving], rtol=1e-3,
+                               atol=1e-5)
