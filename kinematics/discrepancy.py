@@ -63,6 +63,10 @@ from cranktrack.kinematics.spool import TABLE_2_2, SpoolDrive, spool_motion
 #: the two rest positions looks like a little slack; bench/discrepancy.py, 20 null
 #: renders), while the weakest real effect detected scored 26: hence 20.
 BIC_THRESHOLD = 20.0
+#: An accepted effect must change θ by more than this many σ of the noise somewhere.
+#: 3σ let a 0.02 mm wire stretch through on one of 40 tracked null renders (imprint
+#: 3.7σ, ΔBIC 20.6); the weakest real effect on the benchmark's ladders left 6.9σ.
+IMPRINT_SIGMAS = 5.0
 #: Two candidates whose ΔBIC differ by less than this explain the residual equally well.
 LOOK_ALIKE_BIC = 2.0
 #: Model evaluations per least-squares start: kinked models (a drive that starts and
@@ -641,7 +645,7 @@ class CandidateScore:
 
     ``imprint_deg`` is the largest change the effect makes to θ at its
     fitted value; ``resolvable`` says whether that rises above the noise
-    (3σ) anywhere — an effect smaller than the tracker's own error cannot
+    (:data:`IMPRINT_SIGMAS`) anywhere — an effect smaller than the tracker's own error cannot
     be told from it, however well it happens to bend around that error.
     """
 
@@ -672,7 +676,8 @@ class CandidateScore:
         if not self.plausible:
             why.append("value not physically plausible or stuck on a bound")
         if not self.resolvable:
-            why.append(f"its imprint ({self.imprint_deg:.3g}°) is below 3σ of the noise")
+            why.append(f"its imprint ({self.imprint_deg:.3g}°) is below {IMPRINT_SIGMAS:g}σ "
+                       "of the noise")
         return "; ".join(why) or "a better candidate was accepted"
 
     def to_dict(self) -> dict:
@@ -717,7 +722,7 @@ def _score(c: Candidate, rnd: int, current: ModelFit, alt: ModelFit, noise: Nois
                           {q.name: alt.values[q.name] for q in c.parameters},
                           {q.name: sig[q.name] for q in c.parameters}, imprint,
                           bool(excludes), bool(plausible),
-                          bool(imprint > 3.0 * noise.sigma_deg))
+                          bool(imprint > IMPRINT_SIGMAS * noise.sigma_deg))
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,12 @@ import numpy as np
 import pandas as pd
 
 from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic, write_text_atomic
-from cranktrack.kinematics.discrepancy import BIC_THRESHOLD, CANDIDATES, LoopResult
+from cranktrack.kinematics.discrepancy import (
+    BIC_THRESHOLD,
+    IMPRINT_SIGMAS,
+    MODELS,
+    LoopResult,
+)
 
 
 def fit_table(result: LoopResult, t_s: np.ndarray) -> pd.DataFrame:
@@ -84,7 +89,8 @@ def report_markdown(report: dict) -> str:
                          f"[{lo:.5g}, {hi:.5g}] | fitted |")
     lines += ["", "## Candidates", "",
               f"Accepted only with ΔBIC > {BIC_THRESHOLD:g}, a 95 % interval that excludes "
-              "no effect, a plausible value and an imprint on θ above 3σ of the noise.", "",
+              f"no effect, a plausible value and an imprint on θ above {IMPRINT_SIGMAS:g}σ of "
+              "the noise.", "",
               "| round | effect | ΔBIC | RMSE after (deg) | imprint (deg) | value | accepted | "
               "note |", "|---|---|---|---|---|---|---|---|"]
     for c in report["candidates"]:
@@ -145,9 +151,10 @@ def report_markdown(report: dict) -> str:
 def fit_report(result: LoopResult) -> dict:
     """``report.json``'s content: the loop's result and what each accepted effect looks like."""
     report = result.to_dict()
-    report["effect_docs"] = {name: {"shows_as": CANDIDATES[name].shows_as,
-                                    "also_looks_like": CANDIDATES[name].also_looks_like}
-                             for name in result.effects if name in CANDIDATES}
+    library = MODELS[result.model].candidates
+    report["effect_docs"] = {name: {"shows_as": library[name].shows_as,
+                                    "also_looks_like": library[name].also_looks_like}
+                             for name in result.effects if name in library}
     return report
 
 
