@@ -57,6 +57,7 @@ from cranktrack.kinematics.dynamics import COULOMB_SMOOTHING, CrankDynamics
 from cranktrack.kinematics.heat import CurrentSteps, SMAWire, simulate_wire
 from cranktrack.kinematics.sma_bed import SMABed, lagged, quasi_static_theta
 from cranktrack.kinematics.spool import TABLE_2_2, SpoolDrive, spool_motion
+from cranktrack.options import parse_numbers
 
 #: ΔBIC an effect must win by. 10 is "very strong" on the Kass–Raftery scale, but
 #: tracked renders without any effect reached 15.3 (tracker bias that differs between
@@ -94,8 +95,8 @@ class Candidate:
     (``inf`` for a ring frequency: an infinitely stiff spring stops dead);
     ``plausible`` the range a real rig can have; ``needs_known`` known values
     of which at least one is needed to tell the effect from the base model's
-    own parameters; ``family`` groups effects that look alike, and
-    ``separated_by`` says what experiment tells this one from its family.
+    own parameters; ``separated_by`` says what experiment tells this one from
+    the candidates that fit as well.
     """
 
     name: str
@@ -106,7 +107,6 @@ class Candidate:
     plausible: tuple[float, float]
     shows_as: str
     needs_known: tuple[str, ...] = ()
-    family: str = ""
     separated_by: str = ""
     also_looks_like: str = ""
 
@@ -129,11 +129,11 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
     Candidate("slack_mm", "physical", (Parameter("slack_mm", "mm", 0.0, 50.0),),
               ((0.5,), (2.0,)), 0.0, (0.0, 50.0),
               "the crank starts slack/speed after the drive and rocks through a smaller angle",
-              needs_known=("start_s", "stroke_mm"), family="delay", separated_by=_DELAY),
+              needs_known=("start_s", "stroke_mm"), separated_by=_DELAY),
     Candidate("time_offset_s", "recording", (Parameter("time_offset_s", "s", -5.0, 5.0),),
               ((0.05,), (-0.05,)), 0.0, (-5.0, 5.0),
               "every event happens later (or earlier) on the video's clock than the known start",
-              needs_known=("start_s",), family="delay", separated_by=_DELAY,
+              needs_known=("start_s",), separated_by=_DELAY,
               also_looks_like="a rolling shutter (B caught readout × row/height after the frame "
               "time), a lagging servo, or motion blur from an exposure that is not centred on "
               "the timestamp; to tell them apart, film an LED lit with the drive in several "
@@ -162,7 +162,7 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
               ((1.02,), (0.98,)), 1.0, (0.2, 5.0),
               "every rate is off by one factor: the container's frame rate is not the "
               "camera's (true time = clock_scale × video time)",
-              needs_known=("speed_mm_s",), family="rate",
+              needs_known=("speed_mm_s",),
               separated_by="film a clock or a stopwatch, or measure the spool speed on the bench",
               also_looks_like="a spool speed off its nominal value by the same factor; a "
               "stopwatch in the picture separates the two"),
@@ -176,20 +176,7 @@ def parse_known(items: list[str] | None, model: str = "spool") -> dict[str, floa
     if names is None:
         raise CranktrackError(f"the {model!r} model cannot be fitted yet; available: "
                               f"{', '.join(KNOWN_NAMES)}")
-    out: dict[str, float] = {}
-    for item in items or []:
-        name, sep, value = item.partition("=")
-        name = name.strip()
-        if not sep or name not in names:
-            raise CranktrackError(f"--known {item!r} is not NAME=VALUE with a {model} "
-                                  f"parameter ({', '.join(names)})")
-        try:
-            out[name] = float(value)
-        except ValueError:
-            raise CranktrackError(f"--known {item!r}: {value!r} is not a number") from None
-        if not np.isfinite(out[name]):
-            raise CranktrackError(f"--known {item!r} is not a finite number")
-    return out
+    return parse_numbers(items, names, "--known", f"a {model} parameter", finite=True)
 
 
 def spool_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -382,7 +369,7 @@ SMA_CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
               ((0.05,), (-0.05,)), 0.0, (-5.0, 5.0),
               "every switch of the current takes effect later (or earlier) on the video's "
               "clock than the logged times",
-              family="delay", separated_by="film the power supply's indicator, or log the "
+              separated_by="film the power supply's indicator, or log the "
               "current on the same clock as the camera"),
 )}
 

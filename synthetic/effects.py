@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from cranktrack.errors import CranktrackError
 from cranktrack.kinematics.spool import spool_motion
+from cranktrack.options import parse_numbers
 from cranktrack.synthetic.scenarios import Motion, Scenario, SpoolScenario, motion_from_angle
 
 
@@ -99,18 +100,7 @@ ANY_SCENARIO = ("pivot_amp_mm", "pivot_hz")
 
 def parse_effects(items: list[str] | None) -> dict[str, float]:
     """``["slack_mm=2", "k1=-0.1"]`` → ``{"slack_mm": 2.0, "k1": -0.1}``."""
-    out: dict[str, float] = {}
-    for item in items or []:
-        name, sep, value = item.partition("=")
-        name = name.strip()
-        if not sep or name not in EFFECTS:
-            known = ", ".join(EFFECTS)
-            raise CranktrackError(f"--effect {item!r} is not NAME=VALUE with a known effect "
-                                  f"({known})")
-        try:
-            out[name] = float(value)
-        except ValueError:
-            raise CranktrackError(f"--effect {item!r}: {value!r} is not a number") from None
+    out = parse_numbers(items, EFFECTS, "--effect", "a known effect")
     if "return_spring_zeta" in out and "return_spring_hz" not in out:
         raise CranktrackError("return_spring_zeta needs return_spring_hz")
     if "pivot_hz" in out and "pivot_amp_mm" not in out:
