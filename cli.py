@@ -95,13 +95,25 @@ def _render_settings(args: argparse.Namespace):
 
 def _spool_scenario(args: argparse.Namespace):
     from cranktrack.kinematics.spool import SpoolDrive
-    from cranktrack.synthetic.scenarios import FreeScenario, SMAScenario, SpoolScenario
+    from cranktrack.synthetic.scenarios import (
+        AntagonisticScenario,
+        FreeScenario,
+        SMAScenario,
+        SpoolScenario,
+    )
 
+    if getattr(args, "scenario", "spool") == "antagonistic":
+        from cranktrack.kinematics.antagonistic import AntagonisticBed
+
+        return AntagonisticScenario(AntagonisticBed(
+            table_mm=args.table_mm, slack_mm=args.slack_mm,
+            current_A=1.1 if args.current_A is None else args.current_A))
     if getattr(args, "scenario", "spool") == "free":
         return FreeScenario(theta_init_deg=args.theta_init_deg,
                             omega_init_rad_s=args.omega_init_rad_s)
     if getattr(args, "scenario", "spool") == "sma":
-        return SMAScenario(current_A=args.current_A, on_s=args.current_on_s,
+        return SMAScenario(current_A=1.3 if args.current_A is None else args.current_A,
+                           on_s=args.current_on_s,
                            off_s=args.current_off_s)
     return SpoolScenario(SpoolDrive(start_s=args.start_s, stroke_mm=args.stroke_mm,
                                     speed_mm_s=args.speed_mm_s))
@@ -514,29 +526,99 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     import pandas as pd
 
     from cranktrack.files import ensure_dir, write_csv_atomic
-    from cranktrack.kinematics.maps import CONTRACTION, default_grid, rocking_angle_map
+    from cranktrack.kinematics.maps import (
+        CONTRACTION,
+        actuator_map,
+        default_grid,
+        force_actuator,
+        rocking_angle_map,
+    )
     from cranktrack.kinematics.plots import plot_map
 
-    if args.metric != "rocking-angle" or args.actuator not in CONTRACTION:
-        raise CranktrackError(
-            f"the {args.metric} map for the {args.actuator} actuator needs the actuator's force "
-            "model, which is not implemented yet; available: rocking-angle with "
-            + " or ".join(CONTRACTION))
+    if args.n < 2:
+        raise CranktrackError(f"--n must be at least 2, not {args.n}")
+    if args.metric in ("actuator-curve", "max-work"):
+        return _sweep_material(args)
+    if args.actuator == "rigid" and args.metric != "rocking-angle":
+        raise CranktrackError(f"the rigid actuator has no force curve, so no {args.metric} "
+                              "map; use --actuator linear, sma or muscle")
     out = ensure_dir(args.out)
     ratio, theta0 = default_grid(args.n)
-    m = rocking_angle_map(ratio, theta0, CONTRACTION[args.actuator])
-    R, T = np.meshgrid(m.ratio, m.theta0_deg)
-    table = pd.DataFrame({"L1_over_L2": R.ravel(), "theta0_deg": T.ravel(),
-                          "rocking_deg": m.rocking_deg.ravel(),
-                          "incompatibility": m.reason.ravel()})
-    csv = write_csv_atomic(out / f"rocking_angle_{args.actuator}.csv", table)
-    best = m.optimum()
-    png = plot_map(m.ratio, m.theta0_deg, m.rocking_deg, out / f"rocking_angle_{args.actuator}.png",
-                   f"Rocking angle, {args.actuator} actuator "
-                   f"({100 * m.contraction:.2f} % contraction)", "rocking angle (deg)", best)
-    print(f"max rocking angle {best[0]:.1f}° at L1/L2 = {best[1]:.2f}, θ0 = {best[2]:.1f}° "
-          f"(cf. thesis Table 2.6)")
+    R, T = np.meshgrid(ratio, theta0)
+    table = pd.DataFrame({"L1_over_L2": R.ravel(), "theta0_deg": T.ravel()})
+    if args.actuator == "rigid":
+        m = rocking_angle_map(ratio, theta0, CONTRACTION["rigid"])
+        table["rocking_deg"] = m.rocking_deg.ravel()
+        best, stroke = m.optimum(), CONTRACTION["rigid"]
+        z = m.rocking_deg
+    else:
+        stroke, force = force_actuator(args.actuator)
+        m = actuator_map(ratio, theta0, stroke, force)
+        for col in ("rocking_deg", "torque_Nm", "work_J"):
+            table[col] = getattr(m, col).ravel()
+        field = {"rocking-angle": "rocking_deg", "torque": "torque_Nm", "work": "work_J"}
+        z = getattr(m, field[args.metric])
+        best = m.optimum(field[args.metric])
+    table["incompatibility"] = m.reason.ravel()
+    name = f"{args.metric.replace('-', '_')}_{args.actuator}"
+    csv = write_csv_atomic(out / f"{name}.csv", table)
+    what, unit = {"rocking-angle": ("Rocking angle", "deg"), "torque": ("Peak torque", "N·m"),
+                  "work": ("Work", "J")}[args.metric]
+    png = plot_map(ratio, theta0, z, out / f"{name}.png",
+                   f"{what}, {args.actuator} actuator ({100 * stroke:.2f} % stroke)",
+                   f"{what.lower()} ({unit})", best)
+    print(f"max {what.lower()} {best[0]:.1f} {unit} at L1/L2 = {best[1]:.2f}, "
+          f"θ0 = {best[2]:.1f}° (cf. thesis Table 2.6; crank L2 = 1 m)")
     print(f"wrote {csv} and {png}")
+    return 0
+
+
+def _sweep_material(args: argparse.Namespace) -> int:
+    """The SMA wire itself (§2.3): its actuator curve, or work over start/final temperature."""
+    import numpy as np
+    import pandas as pd
+
+    from cranktrack.files import ensure_dir, write_csv_atomic
+    from cranktrack.kinematics.plots import plot_actuator_curves, plot_map
+    from cranktrack.kinematics.sma_material import T_HOT_C, actuator_curve, max_work_map
+
+    out = ensure_dir(args.out)
+    if args.metric == "actuator-curve":
+        c = actuator_curve()
+        lin = c.linearised()
+        table = pd.DataFrame({"stroke_pct": c.stroke_pct, "force_N": c.force_N,
+                              "linear_force_N": lin.force_N, "spring_MPa_per_pct": c.spring})
+        csv = write_csv_atomic(out / "actuator_curve.csv", table)
+        png = plot_actuator_curves({"SMA wire (eqs. 2.6–2.9)": (c.stroke_pct, c.force_N),
+                                    "linearised": (lin.stroke_pct, lin.force_N)},
+                                   out / "actuator_curve.png",
+                                   f"Actuator curve, 250 µm wire heated to {T_HOT_C:.0f} °C")
+        print(f"blocked force {c.blocked_N:.1f} N, free stroke {c.free_pct:.2f} %; work "
+              f"{c.work_J_per_m():.3f} J per metre of wire ({lin.work_J_per_m():.3f} "
+              "linearised)")
+        print(f"wrote {csv} and {png}")
+        return 0
+    T = np.linspace(25.0, 70.0, args.n)
+    method = "analytic" if args.envelope == "linear" else "trapezoid"
+    m = max_work_map(T, T, args.envelope, method)
+    Ti, Tf = np.meshgrid(m.Ti_C, m.Tf_C, indexing="ij")
+    table = pd.DataFrame({"Ti_C": Ti.ravel(), "Tf_C": Tf.ravel(),
+                          "work_MJ_m3": m.work_MJ_m3.ravel(),
+                          "work_per_K_MJ_m3K": m.per_kelvin.ravel()})
+    name = f"max_work_{args.envelope}"
+    csv = write_csv_atomic(out / f"{name}.csv", table)
+    axes = ("final temperature T_f (°C)", "start temperature T_i (°C)")
+    pngs = []
+    for z, best, what, unit, suffix in (
+            (m.work_MJ_m3, m.optimum(), "Work", "MJ/m³", ""),
+            (m.per_kelvin, m.optimum_per_kelvin(), "Work per degree", "MJ/(m³·K)", "_per_K")):
+        # plot_map wants (value, x, y): x is T_f (columns), y is T_i (rows).
+        pngs.append(plot_map(m.Tf_C, m.Ti_C, z, out / f"{name}{suffix}.png",
+                             f"{what}, {args.envelope} envelope", f"{what.lower()} ({unit})",
+                             (best[0], best[2], best[1]), axes, "white: T_f ≤ T_i"))
+        print(f"max {what.lower()} {best[0]:.3f} {unit} at T_i = {best[1]:.1f} °C, "
+              f"T_f = {best[2]:.1f} °C")
+    print(f"wrote {csv}, {pngs[0]} and {pngs[1]}")
     return 0
 
 
@@ -590,10 +672,13 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("synth", help="render a synthetic scene with its ground truth")
-    p.add_argument("scenario", choices=["spool", "free", "sma", "board", "thermal"],
+    p.add_argument("scenario", choices=["spool", "free", "sma", "antagonistic", "board",
+                                        "thermal"],
                    help="spool: the Table 2.2 test bed; free: the damped free response of "
                         "chapter 3 in the same geometry; sma: the SMA-actuated bed of Table "
-                        "2.3 heated by a current step; board: calibration photos of the "
+                        "2.3 heated by a current step; antagonistic: the two-wire mechanism "
+                        "of chapter 5, one wire heated then the other; board: calibration "
+                        "photos of the "
                         "same synthetic camera; thermal: a wire test-bed log for thermal-id "
                         "(thesis Tables 4.2/4.4 constants)")
     p.add_argument("--effect", action="append", metavar="NAME=VALUE",
@@ -607,8 +692,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="(free) release angle, degrees (70; the bias spring rests at 90)")
     p.add_argument("--omega-init-rad-s", type=float, default=0.0,
                    help="(free) release angular velocity, rad/s (0)")
-    p.add_argument("--current-A", type=_non_negative, default=1.3,
-                   help="(sma) heating current, A (1.3, thesis Fig. 4.5)")
+    p.add_argument("--current-A", type=_non_negative, default=None,
+                   help="(sma) heating current, A (1.3, thesis Fig. 4.5); (antagonistic) "
+                   "each wire's, A (1.1: the thesis's 0.8 A holds a 230 µm wire below A_f "
+                   "in the heat model)")
+    p.add_argument("--table-mm", type=_non_negative, default=5.0,
+                   help="(antagonistic) slide-table pre-stress position, mm (5; the thesis "
+                   "steps 0 to 12.5)")
+    p.add_argument("--slack-mm", type=_non_negative, default=0.2,
+                   help="(antagonistic) slack left by fastening the wires, mm (0.2)")
     p.add_argument("--current-on-s", type=_non_negative, default=0.5,
                    help="(sma) when the current is switched on, s (0.5)")
     p.add_argument("--current-off-s", type=_positive, default=3.0,
@@ -712,10 +804,19 @@ def build_parser() -> argparse.ArgumentParser:
                    "RUN/run.rrd, or FILE), or open a live viewer with `spawn`")
     p.set_defaults(func=cmd_fit)
 
-    p = sub.add_parser("sweep", help="parametric maps over frame length and starting angle")
-    p.add_argument("metric", choices=["rocking-angle", "torque", "work"])
+    p = sub.add_parser("sweep", help="parametric maps over frame length and starting angle, "
+                       "and the SMA wire's actuator curve and work maps")
+    p.add_argument("metric", choices=["rocking-angle", "torque", "work", "actuator-curve",
+                                      "max-work"],
+                   help="a map over (L1/L2, θ0) for --actuator; actuator-curve: the wire's "
+                   "force against stroke (Fig. 2.14); max-work: work over start and final "
+                   "temperature for --envelope (Figs. 2.18–2.21)")
     p.add_argument("--actuator", default="rigid", choices=["rigid", "linear", "sma", "muscle"])
-    p.add_argument("--n", type=int, default=200, help="grid points per axis (200)")
+    p.add_argument("--envelope", default="linear", choices=["linear", "nonlinear"],
+                   help="stress–strain–temperature envelope for max-work: eq. 2.10 or "
+                   "eqs. 2.6–2.7")
+    p.add_argument("--n", type=int, default=200, help="grid points per axis (200; max-work: "
+                   "temperatures from M_f 25 to A_f 70 °C)")
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=cmd_sweep)
 

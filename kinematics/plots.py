@@ -54,8 +54,10 @@ def plot_comparison(table: pd.DataFrame, folder: str | os.PathLike) -> list[Path
 
 
 def plot_map(x: np.ndarray, y: np.ndarray, z: np.ndarray, path: str | os.PathLike,
-             title: str, label: str, optimum: tuple[float, float, float] | None = None) -> Path:
-    """A filled contour map over (L1/L2, θ0), like thesis Figs. 2.6 and 2.41."""
+             title: str, label: str, optimum: tuple[float, float, float] | None = None,
+             axes: tuple[str, str] = ("frame length L1 / L2", "starting angle θ0 (deg)"),
+             note: str = "white: the mechanism cannot close (Fig. 2.5)") -> Path:
+    """A filled contour map, by default over (L1/L2, θ0) like thesis Figs. 2.6 and 2.41."""
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
     levels = np.linspace(np.nanmin(z), np.nanmax(z), 15)
     cs = ax.contourf(x, y, z, levels=levels, cmap="viridis")
@@ -63,11 +65,29 @@ def plot_map(x: np.ndarray, y: np.ndarray, z: np.ndarray, path: str | os.PathLik
     if optimum is not None:
         ax.plot(optimum[1], optimum[2], "r*", ms=12, label=f"max {optimum[0]:.1f}")
         ax.legend(loc="lower right", fontsize=8)
-    ax.set_xlabel("frame length L1 / L2")
-    ax.set_ylabel("starting angle θ0 (deg)")
+    ax.set_xlabel(axes[0])
+    ax.set_ylabel(axes[1])
     ax.set_title(title)
-    ax.text(0.02, 0.02, "white: the mechanism cannot close (Fig. 2.5)", transform=ax.transAxes,
-            fontsize=7)
+    ax.text(0.02, 0.02, note, transform=ax.transAxes, fontsize=7)
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def plot_actuator_curves(curves: dict[str, tuple[np.ndarray, np.ndarray]],
+                         path: str | os.PathLike, title: str) -> Path:
+    """Force against stroke for named actuator curves, like thesis Fig. 2.14."""
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    for name, (stroke, force) in curves.items():
+        ax.plot(stroke, force, label=name)
+    ax.set_xlabel("stroke (% of wire length)")
+    ax.set_ylabel("force (N)")
+    ax.set_xlim(left=0)
+    ax.set_ylim(bottom=0)
+    ax.set_title(title)
+    ax.legend()
     fig.tight_layout()
     out = Path(path)
     fig.savefig(out, dpi=110)

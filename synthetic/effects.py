@@ -195,7 +195,9 @@ class ShakenFrame:
         shift = np.stack([np.zeros_like(t), self.amp_mm * np.sin(w * t)], axis=1)
         speed = np.stack([np.zeros_like(t), self.amp_mm * w * np.cos(w * t)], axis=1)
         return replace(m, points_mm={k: v + shift for k, v in m.points_mm.items()},
-                       vB_mm_s=m.vB_mm_s + speed)
+                       vB_mm_s=m.vB_mm_s + speed,
+                       wires_mm=tuple((a + shift, b + shift) for a, b in m.wires_mm),
+                       bars_mm=tuple((a + shift, b + shift) for a, b in m.bars_mm))
 
     def extent_mm(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         lo, hi = self.base.extent_mm()

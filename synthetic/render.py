@@ -132,8 +132,10 @@ def render_frame(
     size: tuple[int, int],
     px_per_mm: float | dict[str, float],
     style: Style | None = None,
+    wires: list[tuple[NDArray, NDArray]] | None = None,
+    bars: list[tuple[NDArray, NDArray]] = (),
 ) -> NDArray[np.float32]:
-    """Draw one frame of the crank-slider.
+    """Draw one frame of the crank-slider (or, with ``wires``, another wire mechanism).
 
     Parameters
     ----------
@@ -146,6 +148,10 @@ def render_frame(
         or one per point (a tilted camera sees near things larger).
     style : Style, optional
         Colours and sizes.
+    wires : list of (start, end), optional
+        Image segments, px, drawn as wires in place of the B–C wire.
+    bars : list of (start, end)
+        Image segments, px, drawn in the crank's colour and width.
 
     Returns
     -------
@@ -166,7 +172,10 @@ def render_frame(
     S = style.supersample
     draw_capsule(img, A, C, style.frame_half_width_mm * scale("A", "C"), style.frame_link, S)
     draw_capsule(img, A, B, style.crank_half_width_mm * scale("A", "B"), style.crank, S)
-    draw_capsule(img, B, C, style.wire_half_width_mm * scale("B", "C"), style.wire, S)
+    for p, q in bars:
+        draw_capsule(img, p, q, style.crank_half_width_mm * scale("A", "B"), style.crank, S)
+    for p, q in wires if wires is not None else [(B, C)]:
+        draw_capsule(img, p, q, style.wire_half_width_mm * scale("B", "C"), style.wire, S)
     for name, colour in style.markers.items():
         if name in points_px:
             p = np.asarray(points_px[name], dtype=float)

@@ -1,14 +1,14 @@
 """Scenarios: the motion a render shows, computed from the models in ``kinematics``.
 
 A scenario maps frame times to a :class:`Motion`: plane positions of the
-markers and the exact kinematics columns. Later issues add SMA, antagonistic
-and free-response scenarios and switchable effects; they only need to return
-a :class:`Motion`.
+markers and the exact kinematics columns: the spool bed (Table 2.2), the free
+response of chapter 3, the SMA bed (Table 2.3) and the antagonistic pair of
+chapter 5.
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from functools import lru_cache
 from typing import Protocol
 
@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import CubicHermiteSpline
 
+from cranktrack.kinematics.antagonistic import AntagonisticBed, simulate_antagonistic
 from cranktrack.kinematics.crank_slider import crank_state, l3_from_theta
 from cranktrack.kinematics.dynamics import CrankDynamics
 from cranktrack.kinematics.heat import CurrentSteps
@@ -30,7 +31,9 @@ class Motion:
     ``points_mm`` maps marker name to plane positions (n, 2) in mm; the other
     fields are the kinematics of the crank in SI-with-mm units: θ and its
     rates in rad, rad/s, rad/s²; ``vB_mm_s`` (n, 2); ``L3_mm`` and
-    ``L3_rate_mm_s``.
+    ``L3_rate_mm_s``. ``wires_mm`` and ``bars_mm`` are segments (start, end),
+    each (n, 2) mm, that a mechanism other than the crank-slider draws: wires
+    in place of the B–C wire, bars in the crank's colour.
     """
 
     t_s: NDArray[np.float64]
@@ -41,6 +44,8 @@ class Motion:
     vB_mm_s: NDArray[np.float64]
     L3_mm: NDArray[np.float64]
     L3_rate_mm_s: NDArray[np.float64]
+    wires_mm: tuple[tuple[NDArray[np.float64], NDArray[np.float64]], ...] = ()
+    bars_mm: tuple[tuple[NDArray[np.float64], NDArray[np.float64]], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -184,6 +189,58 @@ class SMAScenario:
                 "off_s": self.off_s, **{k: v for k, v in asdict(b).items() if k != "thermal"},
                 "thermal": asdict(b.thermal), "L3_0": b.L3_0,
                 "wire_R_ohm": b.wire.R_ohm, "bias_rest_deg": float(np.degrees(b.bias_rest_rad))}
+
+
+@dataclass(frozen=True)
+class AntagonisticScenario:
+    """The two-wire mechanism of thesis chapter 5 (:mod:`cranktrack.kinematics.antagonistic`):
+    one wire is heated and turns the rocker, then the other turns it back; the slide
+    table's position ``bed.table_mm`` sets the pre-stress. The markers are A (pivot),
+    B (on the rocker, at ``bed.rest_deg`` from A→C at the symmetric position) and C
+    (the slide-table shaft)."""
+
+    bed: AntagonisticBed = field(default_factory=AntagonisticBed)
+    name: str = "antagonistic"
+
+    def motion(self, t_s: ArrayLike) -> Motion:
+        """Motion at times ``t_s`` (s, from 0), from one dense quasi-static solution per
+        clip: θ on a 1 ms grid, ω and α by central differences there, cubic Hermite
+        between grid points."""
+        t = np.asarray(t_s, dtype=float)
+        t_end = 10.0 * np.ceil(max(float(t.max()), 1e-9) / 10.0)
+        theta_of, omega_of = _antagonistic_solution(self.bed, t_end)
+        theta, omega = theta_of(t), omega_of(t)
+        m = motion_from_angle(t, theta, omega, omega_of(t, 1), self.bed.anchor_mm,
+                              self.bed.marker_mm)
+        b = self.bed
+        psi = theta - np.radians(b.rest_deg)
+        pins = [b.arm_mm * np.stack([-s * np.sin(psi), s * np.cos(psi)], axis=1)
+                for s in (1.0, -1.0)]
+        anchors = [np.tile([b.anchor_mm, s * b.arm_mm], (len(t), 1)) for s in (1.0, -1.0)]
+        return replace(m, wires_mm=tuple(zip(pins, anchors, strict=True)),
+                       bars_mm=((pins[0], pins[1]),
+                                (anchors[0], anchors[1])))
+
+    def extent_mm(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The marker's whole circle and the slide-table shaft."""
+        b = self.bed
+        return np.array([-b.marker_mm, -b.marker_mm]), np.array([b.anchor_mm, b.marker_mm])
+
+    def to_dict(self) -> dict:
+        b = self.bed
+        return {"name": self.name, **{k: v for k, v in asdict(b).items() if k != "wire"},
+                "wire": asdict(b.wire), "anchor_mm": b.anchor_mm,
+                "wire_length_mm": b.wire_length_mm}
+
+
+@lru_cache(maxsize=8)
+def _antagonistic_solution(bed: AntagonisticBed, t_end: float
+                           ) -> tuple[CubicHermiteSpline, CubicHermiteSpline]:
+    grid = np.arange(0.0, t_end + 1e-3, 1e-3)
+    theta = simulate_antagonistic(bed, grid).theta
+    omega = np.gradient(theta, grid)
+    alpha = np.gradient(omega, grid)
+    return CubicHermiteSpline(grid, theta, omega), CubicHermiteSpline(grid, omega, alpha)
 
 
 @lru_cache(maxsize=8)

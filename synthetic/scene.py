@@ -114,7 +114,14 @@ def _expose(scenario: Scenario, camera: Camera | PinholeCamera, settings: Render
         pts = {k: camera.ideal_project(v[j]) + np.asarray(offset)
                for k, v in motion.points_mm.items()}
         scales = {k: float(camera.local_scale(v[j])) for k, v in motion.points_mm.items()}
-        frame = render_frame(pts, canvas, scales, style)
+
+        def project(segments, j=j):
+            return [(camera.ideal_project(a[j]) + np.asarray(offset),
+                     camera.ideal_project(b[j]) + np.asarray(offset)) for a, b in segments]
+
+        frame = render_frame(pts, canvas, scales, style,
+                             wires=project(motion.wires_mm) if motion.wires_mm else None,
+                             bars=project(motion.bars_mm))
         img = frame if img is None else img + frame
     img /= np.float32(len(times))
     mid = scenario.motion(np.array([t]))

@@ -118,3 +118,12 @@ def test_thermal_id_command_and_its_errors(tmp_path, capsys):
     assert "lacks the column(s)" in capsys.readouterr().err
     with pytest.raises(CranktrackError):
         SMAWire(As_C=80.0)
+
+
+def test_a_frame_a_rounding_error_after_a_switch_is_fine():
+    # np.arange(0, 10, 1e-3)[1400] is 1.4000000000000001: LSODA once refused it.
+    grid = np.arange(0.0, 3.0, 1e-3)
+    steps = CurrentSteps((0.2, 1.4), (1.1, 0.0))
+    fast = simulate_wire(SMAWire(), steps, grid, fast=True)
+    slow = simulate_wire(SMAWire(), steps, grid)
+    np.testing.assert_allclose(fast.T_C, slow.T_C, atol=1e-4)
