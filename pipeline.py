@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from cranktrack.calibration.file import save_calibration
+from cranktrack.calibration.file import load_calibration, save_calibration
 from cranktrack.calibration.known_length import calibrate_known_length, check_length
 from cranktrack.calibration.plane import (
     PlaneCalibration,
@@ -27,7 +27,7 @@ from cranktrack.calibration.plane import (
 from cranktrack.errors import CranktrackError
 from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic, write_text_atomic
 from cranktrack.kinematics.compare import Comparison, compare_spool
-from cranktrack.kinematics.discrepancy import LoopResult, close_loop
+from cranktrack.kinematics.discrepancy import CameraView, LoopResult, close_loop
 from cranktrack.kinematics.measured import measure_kinematics
 from cranktrack.kinematics.plots import plot_comparison
 from cranktrack.report.fit import write_fit_report
@@ -231,11 +231,54 @@ def _image_context(run: Path, measured: pd.DataFrame) -> dict[str, np.ndarray]:
     return ctx
 
 
+def camera_view(run: Path) -> CameraView | None:
+    """The run's image geometry for the camera candidates: its calibration, the image size
+    and where A and C sit (medians of the tracks); None if the run lacks any of them."""
+    import json
+
+    try:
+        cal = load_calibration(run / "calibration.json")
+        tracks = pd.read_csv(run / "tracks.csv")
+        source = json.loads((run / "run.json").read_text()).get("source", {})
+        size = (int(source["width"]), int(source["height"]))
+        A, C = (np.array([np.nanmedian(tracks[f"{m}_x_px"]), np.nanmedian(tracks[f"{m}_y_px"])])
+                for m in "AC")
+        ab = tracks[["B_x_mm", "B_y_mm"]].to_numpy(float) - tracks[["A_x_mm", "A_y_mm"]].to_numpy(
+            float)
+        ac = tracks[["C_x_mm", "C_y_mm"]].to_numpy(float) - tracks[["A_x_mm", "A_y_mm"]].to_numpy(
+            float)
+    except (OSError, ValueError, KeyError, CranktrackError):
+        return None
+    side = float(np.sign(np.nanmedian(ac[:, 0] * ab[:, 1] - ac[:, 1] * ab[:, 0])))
+    if not (np.isfinite(A).all() and np.isfinite(C).all() and side != 0):
+        return None
+
+    if cal.camera is None:  # a plain homography: the fit calls these thousands of times
+        H, H_inv = cal.homography, np.linalg.inv(cal.homography)
+
+        def to_plane(px: np.ndarray) -> np.ndarray:
+            h = px @ H[:, :2].T + H[:, 2]
+            return h[:, :2] / h[:, 2:]
+
+        def to_image(mm: np.ndarray) -> np.ndarray:
+            h = mm @ H_inv[:, :2].T + H_inv[:, 2]
+            return h[:, :2] / h[:, 2:]
+    else:
+        def to_plane(px: np.ndarray) -> np.ndarray:
+            return np.stack(cal.to_plane(px[:, 0], px[:, 1]), axis=1)
+
+        def to_image(mm: np.ndarray) -> np.ndarray:
+            return np.stack(cal.to_image(mm[:, 0], mm[:, 1]), axis=1)
+
+    return CameraView(to_plane, to_image, size, A, C, side)
+
+
 def fit_run(run: Path, model: str, known: dict[str, float]) -> tuple[LoopResult, list[Path]]:
     """Close the loop on ``run/kinematics.csv``; write ``run/fit/`` and refresh the report."""
     run = Path(run)
     measured = read_kinematics(run)
-    result = close_loop(measured, known, model, context=_image_context(run, measured))
+    result = close_loop(measured, known, model, context=_image_context(run, measured),
+                        view=camera_view(run))
     ok = np.isfinite(measured["t_s"]) & np.isfinite(measured["theta_deg"])
     files = write_fit_report(run / "fit", result, measured["t_s"].to_numpy(float)[ok])
     files.append(write_report(run))

@@ -12,6 +12,8 @@ over many seeds; tracks each and runs the loop with the rig's values known
 
 Renders are cached in ``bench/.cache/discrepancy``. Run:
 ``.venv/bin/python bench/discrepancy.py [--seeds N]`` (about 5 minutes at 10 seeds).
+The camera candidates (lens, tilt) take part whenever the run has its tracks and
+calibration, as ``cranktrack fit`` gives them.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ import pandas as pd
 
 from cranktrack.cli import main
 from cranktrack.kinematics.discrepancy import close_loop
+from cranktrack.pipeline import camera_view
 
 CACHE = Path(__file__).resolve().parent / ".cache" / "discrepancy"
 KNOWN = {"L1_mm": 160.8, "L2_mm": 72.4, "speed_mm_s": 14.0, "start_s": 0.5, "stroke_mm": 15.0}
@@ -40,7 +43,13 @@ EFFECTS = {
     "return_spring_hz": ("return_spring_hz", (3.0, 8.0), (12.0, 10.0, 6.0)),
     "fps_label": ("clock_scale", (30.3, 31.0), (30.03, 30.1, 30.3)),
     "wire_stretch_mm": ("wire_stretch_mm", (0.1, 0.5), (0.01, 0.03, 0.1)),
+    "k1": ("lens_edge_pct", (-0.05, -0.15), (-0.005, -0.01, -0.02, -0.05)),
+    "tilt_deg": ("tilt_vertical_deg", (3.0, 8.0), (0.5, 1.0, 2.0, 4.0)),
 }
+
+#: The rendered effect's size in the loop's parameter: the frame rate's ratio, and the
+#: synthetic 60° lens's k1 as the displacement at the half-width, k1·tan²30°, in %.
+TRUE_VALUE = {"fps_label": lambda v: v / FPS, "k1": lambda v: 100 * v * np.tan(np.pi / 6) ** 2}
 
 
 def tracked(name: str, effects: dict[str, float], seed: int, noise: float,
@@ -66,7 +75,7 @@ def loop(run: Path, effect: str | None, value: float | None, known: dict | None 
         known["start_s"] = KNOWN["start_s"] * FPS / value
     measured = pd.read_csv(run / "kinematics.csv")
     truth = pd.read_csv(run.parent / "scene" / "truth.csv")
-    report = close_loop(measured, known).to_dict()
+    report = close_loop(measured, known, view=camera_view(run)).to_dict()
     report["floor_deg"] = float(np.sqrt(np.mean((measured["theta_deg"]
                                                  - truth["theta_deg"]) ** 2)))
     return report
@@ -79,11 +88,13 @@ def dynamic_model(seeds: int) -> None:
     false = 0
     for seed in range(seeds):
         run = tracked(f"free_null_s{seed}", {}, seed, 2.5, "free")
-        false += bool(close_loop(pd.read_csv(run / "kinematics.csv"), {}, "dynamic").effects)
+        false += bool(close_loop(pd.read_csv(run / "kinematics.csv"), {}, "dynamic",
+                                    view=camera_view(run)).effects)
     print(f"  null renders: {false} of {seeds} with a false discovery")
     for size in (0.05, 0.1, 0.3, 1.0):
         run = tracked(f"free_coulomb_{size:g}", {"coulomb_rad_s2": size}, 0, 2.5, "free")
-        r = close_loop(pd.read_csv(run / "kinematics.csv"), {}, "dynamic").to_dict()
+        r = close_loop(pd.read_csv(run / "kinematics.csv"), {}, "dynamic",
+                       view=camera_view(run)).to_dict()
         p = r["parameters"].get("coulomb_rad_s2")
         got = (f"{p['value']:.4g} ± {p['sigma']:.2g} (z {(p['value'] - size) / p['sigma']:+.2f})"
                if p else "not found")
@@ -164,7 +175,7 @@ def main_bench() -> None:
                        "floor": r["floor_deg"]}
                 p = r["parameters"].get(expect)
                 if p and "sigma" in p:
-                    true = size if effect != "fps_label" else size / FPS
+                    true = TRUE_VALUE.get(effect, lambda v: v)(size)
                     rec["z"] = (p["value"] - true) / p["sigma"]
                     off = 1.0 if effect == "fps_label" else 0.0
                     rec["rel_err"] = (p["value"] - true) / (true - off)

@@ -26,10 +26,10 @@ would then accept effects that merely bend around that bias. The BIC and the
 parameter intervals therefore count independent evidence
 (:func:`independent_frames`): each stretch where the mechanism stands still
 once, moving frames as ``n·(1 − ρ)/(1 + ρ)`` from the lag-1 autocorrelation
-ρ (the AR(1) variance inflation) of the richest model's residual or of the
-rigid |AB| link, whichever is more correlated. That keeps null data from
-"discovering" effects while an effect that is really there still wins by a
-wide margin.
+ρ (the AR(1) variance inflation) of the best candidate model's residual (the
+candidates that could pass, fitted together and alone) or of the rigid |AB|
+link, whichever is more correlated. That keeps null data from "discovering"
+effects while an effect that is really there still wins by a wide margin.
 
 Candidates a model cannot tell apart are handled openly: an effect that
 needs a known value to be separable (a dead time is a later start unless the
@@ -168,6 +168,165 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
               "stopwatch in the picture separates the two"),
 )}
 
+
+
+@dataclass(frozen=True)
+class CameraView:
+    """Where the mechanism sits in the image and how the run maps pixels to the plane.
+
+    What a camera candidate needs to say how it would bend the measured angle:
+    ``to_plane`` and ``to_image`` map (n, 2) px ↔ mm as the run's calibration does;
+    ``size`` is the image (width, height), px; ``A_px`` and ``C_px`` the
+    measured pivot and slider end (medians), px; ``side`` +1 or −1, the side of
+    A→C the crank tip is on in the plane.
+    """
+
+    to_plane: Callable[[NDArray], NDArray]
+    to_image: Callable[[NDArray], NDArray]
+    size: tuple[int, int]
+    A_px: NDArray[np.float64]
+    C_px: NDArray[np.float64]
+    side: float
+
+
+#: The camera candidates' effect parameters, all "no effect" at 0.
+CAMERA_PARAMETERS = ("lens_edge_pct", "tilt_vertical_deg", "tilt_horizontal_deg")
+
+_CAMERA_SEPARATION = ("calibrate the camera with a chessboard (`cranktrack calibrate camera`, "
+                      "then `calibrate plane` with it): that measures the lens and the plane's "
+                      "tilt directly, and tracked again with it a camera effect goes while a "
+                      "mechanism effect stays")
+
+
+def _tilt(axis: str) -> Candidate:
+    name = f"tilt_{axis}_deg"
+    about = "horizontal" if axis == "vertical" else "vertical"
+    follows = "row" if axis == "vertical" else "column"
+    return Candidate(
+        name, "camera", (Parameter(name, "deg", -60.0, 60.0),
+                         Parameter(f"tilt_{axis}_fov_deg", "deg", 5.0, 150.0)),
+        ((3.0, 60.0), (-3.0, 60.0)), 0.0, (-45.0, 45.0),
+        f"a camera tilted about the image's {about} axis (the first parameter; the second "
+        "is the lens's horizontal field of view, which sets how fast the scale changes): "
+        f"the plane's scale changes along the image's {follows}s and is squeezed across "
+        f"them, so the angle and the rigid |AB| follow B's image {follows}",
+        separated_by=_CAMERA_SEPARATION,
+        also_looks_like="lens distortion does" + (
+            ", or a rolling shutter (which also follows the row, but only while the crank "
+            "moves)" if axis == "vertical" else ""))
+
+
+#: Camera effects: they bend where the tracker sees B, so they change the measured
+#: angle by an amount that depends on where B is in the image.
+CAMERA_CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
+    Candidate("lens_edge_pct", "camera", (Parameter("lens_edge_pct", "%", -40.0, 40.0),),
+              ((-2.0,), (2.0,)), 0.0, (-30.0, 30.0),
+              "radial lens distortion: the angle is off by an amount that grows with B's "
+              "distance from the image centre, and the rigid crank |AB| seems to change "
+              "length as it turns (the parameter is the radial displacement at the image's "
+              "half-width, in % of that radius; negative is barrel; OpenCV's k1 = this / 100 "
+              "× (2f/width)², k1 = 3 × this / 100 for a 60° lens)",
+              separated_by=_CAMERA_SEPARATION,
+              also_looks_like="a camera tilt does when B stays on one side of the image"),
+    _tilt("vertical"),
+    _tilt("horizontal"),
+)}
+
+
+def _tilted(q: NDArray, tau: float, forward: bool) -> NDArray:
+    """A pinhole's tilt by ``tau`` (rad) about its x axis, in coordinates over the focal
+    length, re-aimed so the image centre stays on the centre: forward from the image an
+    untilted camera would take, or back."""
+    c, s = np.cos(tau), np.sin(tau)
+    x, y = q[:, 0], q[:, 1]
+    if forward:
+        y = y - np.tan(tau)
+        d = c - y * s
+        return np.stack([x / d, (y * c + s) / d], axis=1)
+    qy = (y * c - s) / (c + y * s)
+    return np.stack([x * (c - qy * s), qy + np.tan(tau)], axis=1)
+
+
+def _camera_maps(values: dict[str, float], size: tuple[int, int]
+                 ) -> tuple[Callable[[NDArray], NDArray], Callable[[NDArray], NDArray]]:
+    """(seen, ideal): where the camera effects put an ideal image point, and back, px.
+
+    Tilts are exact pinhole tilts (:func:`_tilted`, about the image's horizontal
+    axis for ``tilt_vertical_deg``, its vertical axis for ``tilt_horizontal_deg``),
+    each with its own field of view; the lens then scales coordinates centred on
+    the image and over its half-width by ``1 + k·|u|²``, k = ``lens_edge_pct``/100.
+    """
+    c = (np.asarray(size, float) - 1.0) / 2.0
+    half = size[0] / 2.0
+    k = values.get("lens_edge_pct", 0.0) / 100.0
+    tilts = []
+    for axis, swap in (("vertical", False), ("horizontal", True)):
+        # Signed as ``cranktrack synth --effect tilt_deg`` turns its camera.
+        tau = -np.radians(values.get(f"tilt_{axis}_deg", 0.0))
+        if tau:
+            fov = np.radians(values.get(f"tilt_{axis}_fov_deg", 60.0))
+            tilts.append((tau, half / np.tan(fov / 2.0), swap))
+
+    def tilt(px: NDArray, forward: bool) -> NDArray:
+        for tau, f, swap in tilts if forward else tilts[::-1]:
+            q = (px - c) / f
+            q = _tilted(q[:, ::-1], tau, forward)[:, ::-1] if swap else _tilted(q, tau, forward)
+            px = c + f * q
+        return px
+
+    def seen(px: NDArray) -> NDArray:
+        u = (tilt(px, True) - c) / half
+        return c + half * u * (1.0 + k * np.sum(u**2, axis=1, keepdims=True))
+
+    def ideal(px: NDArray) -> NDArray:
+        w = (px - c) / half
+        u = w.copy()
+        if k:
+            for _ in range(30):  # k·|u|² ≪ 1: a contraction that settles in a few steps
+                step = w / (1.0 + k * np.sum(u**2, axis=1, keepdims=True))
+                done = np.max(np.abs(step - u)) < 1e-13
+                u = step
+                if done:
+                    break
+        return tilt(c + half * u, False)
+
+    return seen, ideal
+
+
+def camera_theta(theta: NDArray, values: dict[str, float], view: CameraView) -> NDArray:
+    """The angle the run would measure for true angles ``theta`` (rad) through the
+    camera effects in ``values`` (:data:`CAMERA_CANDIDATES`).
+
+    A and C are placed where the measured ones would be without the effects,
+    B on the crank at ``theta`` with |AB|/|AC| = L2/L1; B is imaged through the
+    effects and all three are mapped to the plane by the run's own calibration.
+    """
+    seen, ideal = _camera_maps(values, view.size)
+    pivots = ideal(np.vstack([view.A_px, view.C_px]))
+    A, C = view.to_plane(pivots)
+    span = C - A
+    e = span / np.hypot(*span)
+    n = view.side * np.array([-e[1], e[0]])
+    crank = values["L2_mm"] / values["L1_mm"] * np.hypot(*span)
+    B = A + crank * (np.cos(theta)[:, None] * e + np.sin(theta)[:, None] * n)
+    Bm = view.to_plane(seen(view.to_image(B)))
+    Am, Cm = view.to_plane(np.vstack([view.A_px, view.C_px]))
+    u, v = Cm - Am, Bm - Am
+    return np.arctan2(np.abs(u[0] * v[:, 1] - u[1] * v[:, 0]), v @ u)
+
+
+def _with_camera(simulate: Callable, view: CameraView | None) -> Callable:
+    """``simulate`` followed by the camera effects, when there are any."""
+    if view is None:
+        return simulate
+
+    def run(values: dict[str, float], t_s: NDArray) -> NDArray:
+        theta = simulate(values, t_s)
+        if not any(values.get(k, 0.0) for k in CAMERA_PARAMETERS):
+            return theta
+        return camera_theta(theta, values, view)
+
+    return run
 
 
 def parse_known(items: list[str] | None, model: str = "spool") -> dict[str, float]:
@@ -850,7 +1009,8 @@ def link_evidence(measured: pd.DataFrame, tracker_sigma_deg: float) -> dict:
 
 def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
                model: str = "spool", context: dict[str, NDArray] | None = None,
-               candidates: dict[str, Candidate] | None = None) -> LoopResult:
+               candidates: dict[str, Candidate] | None = None,
+               view: CameraView | None = None) -> LoopResult:
     """Fit the base model to measured θ(t), then add effects while the evidence says so.
 
     Parameters
@@ -867,7 +1027,10 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
         Extra series, one value per row of ``measured``, to correlate the
         residual with (e.g. ``"B image row"``).
     candidates : dict, optional
-        The effect library (default: the model's own).
+        The effect library (default: the model's own, plus the camera effects
+        :data:`CAMERA_CANDIDATES` when ``view`` is given).
+    view : CameraView, optional
+        The run's image geometry, which the camera candidates need.
 
     Raises
     ------
@@ -879,7 +1042,9 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
         raise CranktrackError(f"the {model!r} model cannot be fitted yet; available: "
                               f"{', '.join(MODELS)}")
     known = dict(known or {})
-    candidates = spec.candidates if candidates is None else candidates
+    if candidates is None:
+        candidates = {**spec.candidates, **(CAMERA_CANDIDATES if view is not None else {})}
+    simulate = _with_camera(spec.simulate, view)
     for col in ("t_s", "theta_deg"):
         if col not in measured:
             raise CranktrackError(f"the kinematics table has no {col} column")
@@ -936,7 +1101,7 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
                    else [start_from] if start_from is guess else [start_from, guess])
         starts = [[o[p.name] for p in base_free] + list(es)
                   for es in effect_starts for o in origins]
-        return _fit(t, theta, spec.simulate, held, free, starts, effects, spec.diff_step)
+        return _fit(t, theta, simulate, held, free, starts, effects, spec.diff_step)
 
     base = fit_with((), guess)
     if base is None:
@@ -950,13 +1115,33 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
                              "as a change in the base model's own parameters"}
                      for c in candidates.values() if not separable(c)]
     tryable = [c for c in candidates.values() if separable(c)]
-    # The noise is judged on the richest model (every candidate at once): its
+    # The noise is judged on the richest model (the candidates together): its
     # residual is as close to the measurement error as the library can get, so a
     # second effect still in the data does not pass for noise while the first is tried.
-    reference = fit_with(tuple(c.name for c in tryable), base.values) if tryable else None
+    # Only effects that could pass join it: a fit whose drop in RSS is under
+    # BIC_THRESHOLD tracker variances cannot (the noise is never below the tracker's σ,
+    # nor the evidence more than the frames). It starts where each of them alone ended
+    # (round 1 fits them anyway, and the cache keeps them) and from each one's first
+    # start; the lowest residual of all these fits is the one judged.
+    floor2 = np.radians(tracker_deg) ** 2
+    alone, first, fits, joining = {}, {}, [base], []
+    for c in tryable:
+        single = fit_with((c.name,), base.values)
+        if single is None:
+            continue
+        fits.append(single)
+        if floor2 == 0 or (base.rss - single.rss) / floor2 > BIC_THRESHOLD:
+            joining.append(c.name)
+            first.update(zip((p.name for p in c.parameters), c.starts[0], strict=True))
+            alone.update({p.name: single.values[p.name] for p in c.parameters})
+    if len(joining) > 1:
+        fits += [f for f in (fit_with(tuple(joining), {**base.values, **alone}),
+                             fit_with(tuple(joining), {**base.values, **first}))
+                 if f is not None]
+    reference = min(fits, key=lambda f: f.rss) if tryable else None
     ref = reference if reference is not None and reference.rss < base.rss else base
     noise = NoiseModel.from_residual(ref.residual, len(ref.free), np.radians(tracker_deg),
-                                     "every candidate fitted at once" if ref is reference
+                                     "the best-fitting candidate model" if ref is reference
                                      else "the base model")
     # How many independent pieces of evidence the frames hold. The crank |AB| is
     # rigid, so its measured length is the tracker's error seen directly, free of any
@@ -979,7 +1164,7 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
                 continue
             alt = fit_with((*current.effects, c.name), current.values)
             if alt is not None:
-                tried.append((_score(c, rnd, current, alt, noise, t, spec.simulate, nyquist),
+                tried.append((_score(c, rnd, current, alt, noise, t, simulate, nyquist),
                               alt))
         if not tried:
             break

@@ -14,6 +14,7 @@ import pandas as pd
 from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic, write_text_atomic
 from cranktrack.kinematics.discrepancy import (
     BIC_THRESHOLD,
+    CAMERA_CANDIDATES,
     IMPRINT_SIGMAS,
     MODELS,
     LoopResult,
@@ -151,7 +152,7 @@ def report_markdown(report: dict) -> str:
 def fit_report(result: LoopResult) -> dict:
     """``report.json``'s content: the loop's result and what each accepted effect looks like."""
     report = result.to_dict()
-    library = MODELS[result.model].candidates
+    library = {**MODELS[result.model].candidates, **CAMERA_CANDIDATES}
     report["effect_docs"] = {name: {"shows_as": library[name].shows_as,
                                     "also_looks_like": library[name].also_looks_like}
                              for name in result.effects if name in library}

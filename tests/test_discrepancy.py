@@ -214,13 +214,27 @@ def test_a_rolling_shutter_is_reported_as_a_delay_with_what_tells_it_apart(rende
     assert not report["camera_effect_suspected"]
 
 
-def test_an_uncalibrated_lens_is_not_forced_onto_a_candidate(rendered):
+def test_an_uncalibrated_lens_is_found_as_a_camera_effect(rendered):
     _, run = rendered("lens", ("k1=-0.2",))
     report = fit(run, KNOWN)
-    assert report["effects"] == []
+    assert report["effects"] == ["lens_edge_pct"]
+    # The synthetic camera's 60° lens: k1 = −0.2 moves a point at the half-width by
+    # k1·(tan 30°)² = −6.67 % of its radius.
+    recovered(report, "lens_edge_pct", 100 * -0.2 * np.tan(np.radians(30)) ** 2)
     assert report["camera_effect_suspected"]
-    assert "B image row" in report["unexplained"]
-    assert "calibrate the camera" in report["unexplained"]
+    assert "tilt" in report["effect_docs"]["lens_edge_pct"]["also_looks_like"]
+
+
+@pytest.mark.slow
+def test_a_tilted_camera_is_found_as_a_tilt(rendered):
+    _, run = rendered("tilt", ("tilt_deg=8",))
+    report = fit(run, KNOWN)
+    assert report["effects"] == ["tilt_vertical_deg"]
+    # The tilt and the field of view trade off against each other over one clip, so
+    # the interval is wide (about ±2°); it must hold the truth and exclude no tilt.
+    for name, truth in (("tilt_vertical_deg", 8.0), ("tilt_vertical_fov_deg", 60.0)):
+        p = report["parameters"][name]
+        assert abs(p["value"] - truth) <= 3 * p["sigma"] < truth, (name, p)
 
 
 @pytest.mark.parametrize("coulomb", [0.0, 0.5])
@@ -257,3 +271,53 @@ def test_the_sma_model_finds_a_thermal_lag(tmp_path, lag):
         recovered(report, "thermal_lag_s", lag)
     else:
         assert report["effects"] == []
+
+
+# The camera candidates' geometry, against the renderer's own camera.
+
+def _similarity_residual(a: np.ndarray, b: np.ndarray) -> float:
+    """Largest distance left after the best similarity from points a to points b, px."""
+    za, zb = a[:, 0] + 1j * a[:, 1], b[:, 0] + 1j * b[:, 1]
+    A = np.stack([za, np.ones_like(za)], axis=1)
+    coef, *_ = np.linalg.lstsq(A, zb, rcond=None)
+    return float(np.abs(A @ coef - zb).max())
+
+
+def test_camera_candidates_bend_the_image_as_the_synthetic_camera_does():
+    from cranktrack.kinematics.discrepancy import _camera_maps
+    from cranktrack.synthetic.camera import PinholeCamera
+
+    lo, hi = np.array([-80.0, -80.0]), np.array([170.0, 80.0])
+    grid = np.stack(np.meshgrid(np.linspace(-80, 170, 9), np.linspace(-80, 80, 7)), -1)
+    pts = grid.reshape(-1, 2)
+    flat = PinholeCamera.framing(480, 270, lo, hi)
+    # Lens: OpenCV's k1 on a 60° lens is our displacement at the half-width, k1·tan²30°.
+    lens = PinholeCamera.framing(480, 270, lo, hi, k1=-0.15)
+    seen, ideal = _camera_maps({"lens_edge_pct": -15 * np.tan(np.pi / 6) ** 2}, (480, 270))
+    np.testing.assert_allclose(seen(flat.ideal_project(pts)), lens.project(pts), atol=1e-6)
+    np.testing.assert_allclose(ideal(lens.project(pts)), flat.ideal_project(pts), atol=1e-6)
+    # Tilt: the renderer's tilt_deg = 8 is ours, up to the similarity a calibration absorbs.
+    tilted = PinholeCamera.framing(480, 270, lo, hi, tilt_deg=8.0)
+    seen, _ = _camera_maps({"tilt_vertical_deg": 8.0, "tilt_vertical_fov_deg": 60.0}, (480, 270))
+    assert _similarity_residual(flat.ideal_project(pts), tilted.ideal_project(pts)) > 5.0
+    assert _similarity_residual(seen(flat.ideal_project(pts)), tilted.ideal_project(pts)) < 0.1
+
+
+@pytest.mark.parametrize("side", [1.0, -1.0])
+def test_camera_theta_without_an_effect_is_the_angle_itself(side):
+    from cranktrack.kinematics.discrepancy import CameraView, camera_theta
+
+    H = np.array([[0.5, 0.0, -40.0], [0.0, -0.5, 60.0], [0.0, 0.0, 1.0]])  # px → mm, y flipped
+    Hi = np.linalg.inv(H)
+
+    def apply(M, p):
+        h = p @ M[:, :2].T + M[:, 2]
+        return h[:, :2] / h[:, 2:]
+
+    view = CameraView(lambda p: apply(H, p), lambda p: apply(Hi, p), (480, 270),
+                      np.array([80.0, 120.0]), np.array([401.6, 120.0]), side)
+    theta = np.radians(np.linspace(20.0, 160.0, 15))
+    values = {"L1_mm": 160.8, "L2_mm": 72.4, "lens_edge_pct": 0.0}
+    np.testing.assert_allclose(camera_theta(theta, values, view), theta, atol=1e-12)
+    bent = camera_theta(theta, {**values, "lens_edge_pct": -5.0}, view)
+    assert np.max(np.abs(bent - theta)) > np.radians(0.1)
