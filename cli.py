@@ -798,7 +798,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "stroke_mm; dynamic: theta_init_deg, omega_init_rad_s, k_l, k_s, k_d "
                    "(per unit inertia), theta_rest_deg, L1_mm, L2_mm; sma: current_A and "
                    "current_on_s (required), current_off_s, ambient_C, L1_mm, L2_mm, "
-                   "theta0_deg, recovery_strain, h_W_m2K, As_C, Af_C, Ms_C, Mf_C")
+                   "theta0_deg, recovery_strain, h_W_m2K, As_C, Af_C, Ms_C, Mf_C; any "
+                   "model: hfov_deg, the lens's horizontal field of view (for the tilt "
+                   "candidates; 60 if not given)")
     p.add_argument("--rerun", nargs="?", const="RUN/run.rrd", metavar="FILE|spawn",
                    help="also write the run's Rerun recording with the fit (default "
                    "RUN/run.rrd, or FILE), or open a live viewer with `spawn`")

@@ -198,18 +198,24 @@ _CAMERA_SEPARATION = ("calibrate the camera with a chessboard (`cranktrack calib
                       "mechanism effect stays")
 
 
+#: Field of view assumed for a tilt unless ``--known hfov_deg=…`` says otherwise, deg.
+#: Over one clip a tilt's keystone fixes only tan(tilt)·tan(fov/2) (the squeeze
+#: across the tilt axis is second order), so the two cannot be fitted together.
+DEFAULT_HFOV_DEG = 60.0
+
+
 def _tilt(axis: str) -> Candidate:
     name = f"tilt_{axis}_deg"
     about = "horizontal" if axis == "vertical" else "vertical"
     follows = "row" if axis == "vertical" else "column"
     return Candidate(
-        name, "camera", (Parameter(name, "deg", -60.0, 60.0),
-                         Parameter(f"tilt_{axis}_fov_deg", "deg", 5.0, 150.0)),
-        ((3.0, 60.0), (-3.0, 60.0)), 0.0, (-45.0, 45.0),
-        f"a camera tilted about the image's {about} axis (the first parameter; the second "
-        "is the lens's horizontal field of view, which sets how fast the scale changes): "
-        f"the plane's scale changes along the image's {follows}s and is squeezed across "
-        f"them, so the angle and the rigid |AB| follow B's image {follows}",
+        name, "camera", (Parameter(name, "deg", -60.0, 60.0),), ((3.0,), (-3.0,)), 0.0,
+        (-45.0, 45.0),
+        f"a camera tilted about the image's {about} axis: the plane's scale changes along "
+        f"the image's {follows}s and is squeezed across them, so the angle and the rigid "
+        f"|AB| follow B's image {follows} (the tilt is for a lens of {DEFAULT_HFOV_DEG:g}° "
+        "horizontal field of view unless `--known hfov_deg=…` gives yours; it scales "
+        "about as 1/tan(fov/2))",
         separated_by=_CAMERA_SEPARATION,
         also_looks_like="lens distortion does" + (
             ", or a rolling shutter (which also follows the row, but only while the crank "
@@ -252,9 +258,10 @@ def _camera_maps(values: dict[str, float], size: tuple[int, int]
     """(seen, ideal): where the camera effects put an ideal image point, and back, px.
 
     Tilts are exact pinhole tilts (:func:`_tilted`, about the image's horizontal
-    axis for ``tilt_vertical_deg``, its vertical axis for ``tilt_horizontal_deg``),
-    each with its own field of view; the lens then scales coordinates centred on
-    the image and over its half-width by ``1 + k·|u|²``, k = ``lens_edge_pct``/100.
+    axis for ``tilt_vertical_deg``, its vertical axis for ``tilt_horizontal_deg``)
+    for a lens of ``hfov_deg`` (:data:`DEFAULT_HFOV_DEG` unless known); the lens
+    then scales coordinates centred on the image and over its half-width by
+    ``1 + k·|u|²``, k = ``lens_edge_pct``/100.
     """
     c = (np.asarray(size, float) - 1.0) / 2.0
     half = size[0] / 2.0
@@ -264,7 +271,7 @@ def _camera_maps(values: dict[str, float], size: tuple[int, int]
         # Signed as ``cranktrack synth --effect tilt_deg`` turns its camera.
         tau = -np.radians(values.get(f"tilt_{axis}_deg", 0.0))
         if tau:
-            fov = np.radians(values.get(f"tilt_{axis}_fov_deg", 60.0))
+            fov = np.radians(values.get("hfov_deg", DEFAULT_HFOV_DEG))
             tilts.append((tau, half / np.tan(fov / 2.0), swap))
 
     def tilt(px: NDArray, forward: bool) -> NDArray:
@@ -590,7 +597,9 @@ MODELS: dict[str, ModelSpec] = {
 }
 
 #: Names ``--known`` accepts per model.
-KNOWN_NAMES = {name: tuple(spec.base) for name, spec in MODELS.items()}
+#: What ``--known`` takes: each model's base parameters, and the lens's horizontal
+#: field of view, which the tilt candidates need.
+KNOWN_NAMES = {name: (*spec.base, "hfov_deg") for name, spec in MODELS.items()}
 
 
 def effective_samples(residual: NDArray[np.float64]) -> float:
