@@ -83,6 +83,10 @@ EFFECTS: dict[str, EffectInfo] = {
                                 "its transformation through a first-order lag: the crank "
                                 "answers each switch of the current later and more smoothly "
                                 "than the lumped heat model says"),
+    "damping_Nms_rad": EffectInfo("physical", "N·m·s/rad", "(sma scenario) extra viscous "
+                                  "drag at the pivot, on top of the bed's own: the crank "
+                                  "follows each heating and cooling later and more smoothly "
+                                  "but settles at the same angles"),
     "coulomb_rad_s2": EffectInfo("physical", "rad/s²", "(free scenario) dry friction at the "
                                  "pivot: the swing shrinks by the same angle every half cycle "
                                  "instead of by the same fraction, and the crank comes to rest "
@@ -92,7 +96,7 @@ EFFECTS: dict[str, EffectInfo] = {
 #: Physical effects of the free-response scenario.
 FREE_ONLY = ("coulomb_rad_s2",)
 #: Physical effects of the SMA bed.
-SMA_ONLY = ("thermal_lag_s",)
+SMA_ONLY = ("thermal_lag_s", "damping_Nms_rad")
 
 #: Effects that work on any scenario (the rest of the physical ones are the spool's).
 ANY_SCENARIO = ("pivot_amp_mm", "pivot_hz")

@@ -187,11 +187,16 @@ def render_scene(
     effects = dict(effects or {})
     physical = {k: v for k, v in effects.items()
                 if EFFECTS[k].kind == "physical" and k not in ANY_SCENARIO + FREE_ONLY + SMA_ONLY}
+    for name in SMA_ONLY:
+        if name in effects and not isinstance(scenario, SMAScenario):
+            raise CranktrackError(f"{name} applies to the sma scenario")
     if "thermal_lag_s" in effects:
-        if not isinstance(scenario, SMAScenario):
-            raise CranktrackError("thermal_lag_s applies to the sma scenario")
         scenario = replace(scenario, bed=replace(scenario.bed,
                                                  thermal_lag_s=effects["thermal_lag_s"]))
+    if "damping_Nms_rad" in effects:
+        bed = scenario.bed
+        scenario = replace(scenario, bed=replace(
+            bed, damping_Nms_rad=bed.damping_Nms_rad + effects["damping_Nms_rad"]))
     if "coulomb_rad_s2" in effects:
         if not isinstance(scenario, FreeScenario):
             raise CranktrackError("coulomb_rad_s2 applies to the free scenario")

@@ -104,3 +104,23 @@ def test_thermal_lag_delays_the_crank_but_not_where_it_ends():
     assert 0.1 < halfway(lag) - halfway(plain) < 0.3  # about one time constant later
     assert np.degrees(lag.theta[t < 3].min()) == pytest.approx(
         np.degrees(plain.theta[t < 3].min()), abs=0.05)
+
+
+def test_extra_pivot_damping_delays_the_crank_but_not_where_it_settles(tmp_path):
+    t = np.arange(0, 6, 1 / 100)
+    plain = SMAScenario().motion(t)
+    bed = SMABed()
+    damped = SMAScenario(bed=SMABed(damping_Nms_rad=bed.damping_Nms_rad + 0.05)).motion(t)
+    # Heating pulls θ down, cooling lets it back up: the damped crank is behind both ways.
+    heating, cooling = (t > 0.5) & (t < 2.5), (t > 3.0)
+    lag = np.degrees(damped.theta - plain.theta)
+    assert np.all(lag[heating] >= -1e-6) and np.all(lag[cooling] <= 1e-6)
+    assert np.max(np.abs(lag)) > 0.5
+    hot = (t > 2.5) & (t < 3.0)
+    np.testing.assert_allclose(np.degrees(damped.theta[hot]), np.degrees(plain.theta[hot]),
+                               atol=0.01)
+    assert np.degrees(damped.theta[-1]) == pytest.approx(125.0, abs=0.01)
+    from cranktrack.errors import CranktrackError
+    with pytest.raises(CranktrackError, match="sma scenario"):
+        render_scene(FreeScenario(), tmp_path / "x", RenderSettings(size=(64, 36), seconds=0.1),
+                     effects={"damping_Nms_rad": 0.05})
