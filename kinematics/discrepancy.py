@@ -13,11 +13,12 @@ Three base models (:data:`MODELS`): ``spool`` (the rigid bed of thesis §2.5.2),
 3. Every candidate effect of the model (e.g. :data:`CANDIDATES` for the
    spool, each a model extension with its own physical parameters) is fitted
    on top of the current model.
-4. The best is accepted only if ΔBIC > 20 (:data:`BIC_THRESHOLD`), its
+4. A candidate passes only if ΔBIC > 20 (:data:`BIC_THRESHOLD`), its
    parameter's 95 % interval excludes "no effect", the value is physically
-   plausible and its imprint on θ rises above the noise; then the rest are
-   tried again on top of it, until nothing more is accepted or the residual
-   is white.
+   plausible and its imprint on θ rises above the noise; the passing one
+   with the largest ΔBIC is accepted (any that fit as well or better but
+   fail are named beside it), then the rest are tried again on top of it,
+   until nothing more is accepted or the residual is white.
 
 Tracker errors on compressed video are mostly a slowly varying bias (the
 same marker at the same place gives the same error), so the residual of a
@@ -1178,19 +1179,25 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
         if not tried:
             break
         tried.sort(key=lambda sa: -sa[0].delta_bic)
-        best, alt = tried[0]
-        if best.passes:
-            like = [s.name for s, _ in tried[1:]
-                    if best.delta_bic - s.delta_bic < LOOK_ALIKE_BIC and s.delta_bic > 0]
+        # The best candidate that passes every test; one that fits a little better but
+        # fails one (an imprint under 5σ, a value on a bound) does not block it — it is
+        # named beside it, as is any that fits as well.
+        at = next((i for i, (sc, _) in enumerate(tried) if sc.passes), None)
+        if at is not None:
+            best, alt = tried[at]
+            like = [sc.name for i, (sc, _) in enumerate(tried) if i != at and sc.delta_bic > 0
+                    and (i < at or best.delta_bic - sc.delta_bic < LOOK_ALIKE_BIC)]
             note = ""
             if like:
                 note = f"fits as well as {', '.join(like)}"
+                ways = dict.fromkeys(candidates[n].separated_by for n in (best.name, *like))
                 groups.append({"effects": [best.name, *like], "round": rnd,
-                               "separated_by": candidates[best.name].separated_by
+                               "separated_by": "; or ".join(w for w in ways if w)
                                or "a known value or a measurement only one of them changes"})
-            tried[0] = (replace(best, accepted=True, note=note), alt)
-        scores += [s if s.accepted or s.note else replace(s, note=s.why_not()) for s, _ in tried]
-        if not best.passes:
+            tried[at] = (replace(best, accepted=True, note=note), alt)
+        scores += [sc if sc.accepted or sc.note else replace(sc, note=sc.why_not())
+                   for sc, _ in tried]
+        if at is None:
             break
         current = alt
         steps.append(alt)
