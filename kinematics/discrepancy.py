@@ -532,6 +532,14 @@ SMA_CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
               also_looks_like="a slow thermocouple-free wire with non-uniform temperature, "
               "heat lost at the clamps, or a damped, heavy crank; a thinner or longer wire "
               "changes a thermal lag, a lighter crank a mechanical one"),
+    Candidate("damping_Nms_rad", "physical",
+              (Parameter("damping_Nms_rad", "N·m·s/rad", 0.0, 1.0),), ((0.01,), (0.05,)), 0.0,
+              (0.0, 1.0),
+              "extra viscous drag at the pivot (on top of the bed's own): the crank trails "
+              "its balance by an angle that grows with its speed, most where it moves fastest, "
+              "and settles at the same angles",
+              also_looks_like="a thermal lag does; a damper's lag is an angle in proportion "
+              "to the crank's speed, a thermal lag's a time: heat at two currents and compare"),
     Candidate("time_offset_s", "recording", (Parameter("time_offset_s", "s", -5.0, 5.0),),
               ((0.05,), (-0.05,)), 0.0, (-5.0, 5.0),
               "every switch of the current takes effect later (or earlier) on the video's "
@@ -555,7 +563,8 @@ def sma_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[np.
                    Af_C=v["Af_C"], Ms_C=v["Ms_C"], Mf_C=v["Mf_C"])
     bed = SMABed(L1=v["L1_mm"], L2=v["L2_mm"], theta0_deg=v["theta0_deg"],
                  recovery_strain=v["recovery_strain"], thermal=wire,
-                 thermal_lag_s=v.get("thermal_lag_s", 0.0))
+                 thermal_lag_s=v.get("thermal_lag_s", 0.0),
+                 damping_Nms_rad=SMABed.damping_Nms_rad + v.get("damping_Nms_rad", 0.0))
     t = np.asarray(t_s, float)
     fine = np.arange(min(0.0, t[0]), t[-1] + 0.01, 0.005)
     heat = simulate_wire(bed.wire, current, fine, rtol=1e-7, fast=True)
@@ -597,7 +606,6 @@ MODELS: dict[str, ModelSpec] = {
                      diff_step=1e-3),
 }
 
-#: Names ``--known`` accepts per model.
 #: What ``--known`` takes: each model's base parameters, and the lens's horizontal
 #: field of view, which the tilt candidates need.
 KNOWN_NAMES = {name: (*spec.base, "hfov_deg") for name, spec in MODELS.items()}

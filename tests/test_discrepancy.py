@@ -232,6 +232,53 @@ def test_a_tilted_camera_is_found_as_a_tilt(rendered):
     recovered(report, "tilt_vertical_deg", 8.0)  # the renderer's lens is the 60° assumed
 
 
+@pytest.mark.parametrize("coulomb", [0.0, 0.5])
+def test_the_dynamic_model_finds_dry_friction_in_a_free_response(rendered, coulomb):
+    effects = (f"coulomb_rad_s2={coulomb}",) if coulomb else ()
+    scene, run = rendered(f"free{coulomb}", effects, scenario="free")
+    assert main(["fit", str(run), "--model", "dynamic"]) == 0
+    report = json.loads((run / "fit" / "report.json").read_text())
+    assert report["model"] == "dynamic"
+    assert report["rmse_after_deg"] <= 1.5 * floor_deg(scene, run)
+    if coulomb:
+        assert report["effects"] == ["coulomb_rad_s2"]
+        recovered(report, "coulomb_rad_s2", coulomb)
+    else:
+        assert report["effects"] == []
+
+
+SMA_KNOWN = ["--known", "current_A=1.3", "--known", "current_on_s=0.5",
+             "--known", "current_off_s=3"]
+#: The heat model's constants as rendered (Tables 4.2/4.4): without them extra pivot
+#: damping hides in fitted transformation temperatures and h.
+THERMAL_KNOWN = ["--known", "h_W_m2K=625", "--known", "As_C=55", "--known", "Af_C=70",
+                 "--known", "Ms_C=50", "--known", "Mf_C=25"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("effect, value, known", [
+    (None, 0.0, []),
+    ("thermal_lag_s", 0.2, []),
+    ("damping_Nms_rad", 0.05, THERMAL_KNOWN),
+])
+def test_the_sma_model_finds_a_thermal_lag_or_pivot_damping(tmp_path, effect, value, known):
+    # Slow (≈ 1–2 min each: a 640×360 render and a loop whose every simulation runs the
+    # heat model): `pytest -m slow`.
+    scene, run = tmp_path / "scene", tmp_path / "run"
+    args = ["synth", "sma", "--out", str(scene), "--size", "640x360", "--seconds", "5"]
+    assert main([*args, *(["--effect", f"{effect}={value}"] if effect else [])]) == 0
+    assert main(["track", str(scene / "video.mp4"), "--out", str(run),
+                 "--known-length", "A-C=305"]) == 0
+    assert main(["fit", str(run), "--model", "sma", *SMA_KNOWN, *known]) == 0
+    report = json.loads((run / "fit" / "report.json").read_text())
+    assert report["rmse_after_deg"] <= 1.5 * floor_deg(scene, run)
+    if effect:
+        assert report["effects"][0] == effect
+        recovered(report, effect, value)
+    else:
+        assert report["effects"] == []
+
+
 # The camera candidates' geometry, against the renderer's own camera.
 
 def _similarity_residual(a: np.ndarray, b: np.ndarray) -> float:
