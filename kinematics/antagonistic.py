@@ -48,7 +48,7 @@ Units: mm, s, °C, N; angles in degrees in the public fields.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -237,8 +237,6 @@ def simulate_antagonistic(bed: AntagonisticBed, t_s: ArrayLike) -> AntagonisticM
 def rocking_vs_table(bed: AntagonisticBed, tables_mm: ArrayLike = THESIS_TABLE_MM,
                      dt_s: float = 0.01) -> NDArray[np.float64]:
     """Total rocking angle (deg) of one heat-one-then-the-other cycle at each table position."""
-    from dataclasses import replace
-
     t = np.arange(0.0, bed.off_s[1] + 2.0, dt_s)
     return np.array([simulate_antagonistic(replace(bed, table_mm=float(x)), t).rocking_deg
                      for x in np.asarray(tables_mm, float)])
