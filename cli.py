@@ -102,19 +102,19 @@ def _spool_scenario(args: argparse.Namespace):
         SpoolScenario,
     )
 
+    # Each scenario has its own default current; pass the option only when it was given.
+    given = getattr(args, "current_A", None)
+    current = {} if given is None else {"current_A": given}
     if getattr(args, "scenario", "spool") == "antagonistic":
         from cranktrack.kinematics.antagonistic import AntagonisticBed
 
         return AntagonisticScenario(AntagonisticBed(
-            table_mm=args.table_mm, slack_mm=args.slack_mm,
-            current_A=1.1 if args.current_A is None else args.current_A))
+            table_mm=args.table_mm, slack_mm=args.slack_mm, **current))
     if getattr(args, "scenario", "spool") == "free":
         return FreeScenario(theta_init_deg=args.theta_init_deg,
                             omega_init_rad_s=args.omega_init_rad_s)
     if getattr(args, "scenario", "spool") == "sma":
-        return SMAScenario(current_A=1.3 if args.current_A is None else args.current_A,
-                           on_s=args.current_on_s,
-                           off_s=args.current_off_s)
+        return SMAScenario(on_s=args.current_on_s, off_s=args.current_off_s, **current)
     return SpoolScenario(SpoolDrive(start_s=args.start_s, stroke_mm=args.stroke_mm,
                                     speed_mm_s=args.speed_mm_s))
 

@@ -252,25 +252,7 @@ def camera_view(run: Path) -> CameraView | None:
     side = float(np.sign(np.nanmedian(ac[:, 0] * ab[:, 1] - ac[:, 1] * ab[:, 0])))
     if not (np.isfinite(A).all() and np.isfinite(C).all() and side != 0):
         return None
-
-    if cal.camera is None:  # a plain homography: the fit calls these thousands of times
-        H, H_inv = cal.homography, np.linalg.inv(cal.homography)
-
-        def to_plane(px: np.ndarray) -> np.ndarray:
-            h = px @ H[:, :2].T + H[:, 2]
-            return h[:, :2] / h[:, 2:]
-
-        def to_image(mm: np.ndarray) -> np.ndarray:
-            h = mm @ H_inv[:, :2].T + H_inv[:, 2]
-            return h[:, :2] / h[:, 2:]
-    else:
-        def to_plane(px: np.ndarray) -> np.ndarray:
-            return np.stack(cal.to_plane(px[:, 0], px[:, 1]), axis=1)
-
-        def to_image(mm: np.ndarray) -> np.ndarray:
-            return np.stack(cal.to_image(mm[:, 0], mm[:, 1]), axis=1)
-
-    return CameraView(to_plane, to_image, size, A, C, side)
+    return CameraView(cal.plane_points, cal.image_points, size, A, C, side)
 
 
 def fit_run(run: Path, model: str, known: dict[str, float]) -> tuple[LoopResult, list[Path]]:

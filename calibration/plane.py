@@ -22,6 +22,7 @@ kinematics' convention); lengths are untouched.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import cv2
 import numpy as np
@@ -50,21 +51,23 @@ class PlaneCalibration:
     quality: dict = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
 
-    def to_plane(self, x_px: NDArray, y_px: NDArray) -> tuple[NDArray, NDArray]:
-        """Image points (px) to plane points (mm); NaN in, NaN out."""
-        pts = np.stack([np.asarray(x_px, float).ravel(), np.asarray(y_px, float).ravel()], 1)
+    @cached_property
+    def _inverse(self) -> NDArray[np.float64]:
+        return np.linalg.inv(self.homography)
+
+    def plane_points(self, px: NDArray) -> NDArray[np.float64]:
+        """Image points (n, 2) px to plane points (n, 2) mm; NaN in, NaN out."""
+        pts = np.asarray(px, float).reshape(-1, 2)
         if self.camera is not None:
             pts = self.camera.undistort_points(pts)
-        h = np.hstack([pts, np.ones((len(pts), 1))]) @ self.homography.T
+        h = pts @ self.homography[:, :2].T + self.homography[:, 2]
         with np.errstate(invalid="ignore", divide="ignore"):
-            xy = h[:, :2] / h[:, 2:3]
-        shape = np.shape(x_px)
-        return xy[:, 0].reshape(shape), xy[:, 1].reshape(shape)
+            return h[:, :2] / h[:, 2:3]
 
-    def to_image(self, x_mm: NDArray, y_mm: NDArray) -> tuple[NDArray, NDArray]:
-        """Plane points (mm) back to image pixels (the inverse of :meth:`to_plane`)."""
-        pts = np.stack([np.asarray(x_mm, float).ravel(), np.asarray(y_mm, float).ravel()], 1)
-        h = np.hstack([pts, np.ones((len(pts), 1))]) @ np.linalg.inv(self.homography).T
+    def image_points(self, mm: NDArray) -> NDArray[np.float64]:
+        """Plane points (n, 2) mm back to image pixels (the inverse of :meth:`plane_points`)."""
+        pts = np.asarray(mm, float).reshape(-1, 2)
+        h = pts @ self._inverse[:, :2].T + self._inverse[:, 2]
         with np.errstate(invalid="ignore", divide="ignore"):
             ideal = h[:, :2] / h[:, 2:3]
         if self.camera is not None:
@@ -74,8 +77,21 @@ class PlaneCalibration:
             obj = np.hstack([norm, np.ones((len(norm), 1))])
             img, _ = cv2.projectPoints(obj, np.zeros(3), np.zeros(3), K, self.camera.distortion)
             ideal[ok] = img.reshape(-1, 2)
+        return ideal
+
+    def to_plane(self, x_px: NDArray, y_px: NDArray) -> tuple[NDArray, NDArray]:
+        """Image points (px) to plane points (mm); NaN in, NaN out."""
+        xy = self.plane_points(np.stack([np.asarray(x_px, float).ravel(),
+                                         np.asarray(y_px, float).ravel()], 1))
+        shape = np.shape(x_px)
+        return xy[:, 0].reshape(shape), xy[:, 1].reshape(shape)
+
+    def to_image(self, x_mm: NDArray, y_mm: NDArray) -> tuple[NDArray, NDArray]:
+        """Plane points (mm) back to image pixels (the inverse of :meth:`to_plane`)."""
+        xy = self.image_points(np.stack([np.asarray(x_mm, float).ravel(),
+                                         np.asarray(y_mm, float).ravel()], 1))
         shape = np.shape(x_mm)
-        return ideal[:, 0].reshape(shape), ideal[:, 1].reshape(shape)
+        return xy[:, 0].reshape(shape), xy[:, 1].reshape(shape)
 
     def mm_per_px(self, x_px: NDArray, y_px: NDArray) -> NDArray[np.float64]:
         """Local scale (mm per px, RMS over directions) at image points."""

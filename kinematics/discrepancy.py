@@ -1142,7 +1142,7 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
     # (round 1 fits them anyway, and the cache keeps them) and from each one's first
     # start; the lowest residual of all these fits is the one judged.
     floor2 = np.radians(tracker_deg) ** 2
-    alone, first, fits, joining = {}, {}, [base], []
+    alone, first, fits, joining = {}, {}, [], []
     for c in tryable:
         single = fit_with((c.name,), base.values)
         if single is None:
@@ -1156,11 +1156,11 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
         fits += [f for f in (fit_with(tuple(joining), {**base.values, **alone}),
                              fit_with(tuple(joining), {**base.values, **first}))
                  if f is not None]
-    reference = min(fits, key=lambda f: f.rss) if tryable else None
-    ref = reference if reference is not None and reference.rss < base.rss else base
+    ref = min(fits, key=lambda f: f.rss, default=base)
+    ref = ref if ref.rss < base.rss else base
     noise = NoiseModel.from_residual(ref.residual, len(ref.free), np.radians(tracker_deg),
-                                     "the best-fitting candidate model" if ref is reference
-                                     else "the base model")
+                                     "the base model" if ref is base
+                                     else "the best-fitting candidate model")
     # How many independent pieces of evidence the frames hold. The crank |AB| is
     # rigid, so its measured length is the tracker's error seen directly, free of any
     # model; a rich reference model whitens its residual by absorbing some of that

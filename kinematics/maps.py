@@ -30,6 +30,13 @@ CONTRACTION = {
     "muscle": 0.25 * 0.55,  # §2.6: 25 % of the contractile part, 55 % of the musculotendon
 }
 
+def grid_max(z: NDArray, columns: NDArray, rows: NDArray) -> tuple[float, float, float]:
+    """(largest value of the map ``z``, its column coordinate, its row coordinate); NaN
+    cells are skipped."""
+    r, c = np.unravel_index(np.nanargmax(z), z.shape)
+    return float(z[r, c]), float(columns[c]), float(rows[r])
+
+
 #: Reason codes in :attr:`RockingMap.reason`.
 OK, FRAME_TOO_SHORT, CRANK_TOO_SHORT = 0, 1, 2
 
@@ -46,9 +53,7 @@ class RockingMap:
 
     def optimum(self) -> tuple[float, float, float]:
         """(largest rocking angle deg, its L1/L2, its θ0 deg)."""
-        i = np.nanargmax(self.rocking_deg)
-        r, c = np.unravel_index(i, self.rocking_deg.shape)
-        return float(self.rocking_deg[r, c]), float(self.ratio[c]), float(self.theta0_deg[r])
+        return grid_max(self.rocking_deg, self.ratio, self.theta0_deg)
 
     def at(self, ratio: float, theta0_deg: float) -> float:
         """The rocking angle at one point (computed exactly, not interpolated)."""
@@ -113,9 +118,7 @@ class ActuatorMap:
 
     def optimum(self, field: str) -> tuple[float, float, float]:
         """(largest value of ``field``, its L1/L2, its θ0 deg)."""
-        z = getattr(self, field)
-        r, c = np.unravel_index(np.nanargmax(z), z.shape)
-        return float(z[r, c]), float(self.ratio[c]), float(self.theta0_deg[r])
+        return grid_max(getattr(self, field), self.ratio, self.theta0_deg)
 
 
 def actuator_map(ratio: NDArray, theta0_deg: NDArray, free_fraction: float,

@@ -50,6 +50,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import brentq
 
 from cranktrack.errors import CranktrackError
+from cranktrack.kinematics.maps import grid_max
 
 #: Recoverable (pre-)strain of the idealised wire, % (§2.3.3).
 PRESTRAIN_PCT = 3.25
@@ -208,18 +209,15 @@ class WorkMap:
         dT = self.Tf_C[None, :] - self.Ti_C[:, None]
         return self.work_MJ_m3 / np.where(dT > 0, dT, np.nan)
 
-    @staticmethod
-    def _argmax(z: NDArray, Ti: NDArray, Tf: NDArray) -> tuple[float, float, float]:
-        r, c = np.unravel_index(np.nanargmax(z), z.shape)
-        return float(z[r, c]), float(Ti[r]), float(Tf[c])
-
     def optimum(self) -> tuple[float, float, float]:
         """(largest work MJ/m³, its T_i, its T_f)."""
-        return self._argmax(self.work_MJ_m3, self.Ti_C, self.Tf_C)
+        w, tf, ti = grid_max(self.work_MJ_m3, self.Tf_C, self.Ti_C)
+        return w, ti, tf
 
     def optimum_per_kelvin(self) -> tuple[float, float, float]:
         """(largest work per degree MJ/(m³·K), its T_i, its T_f)."""
-        return self._argmax(self.per_kelvin, self.Ti_C, self.Tf_C)
+        w, tf, ti = grid_max(self.per_kelvin, self.Tf_C, self.Ti_C)
+        return w, ti, tf
 
 
 def max_work_map(Ti_C: ArrayLike, Tf_C: ArrayLike, envelope: str = "linear",
