@@ -515,7 +515,8 @@ def cmd_calibrate_plane(args: argparse.Namespace) -> int:
     path = save_calibration(args.out, cal)
     q = cal.quality
     print(f"plane from {q['points']} points: homography residual "
-          f"{q['homography_rms_px']:.3f} px, {q['homography_rms_mm']:.4f} mm"
+          f"{q['homography_rms_px']:.3f} px, {q['homography_rms_mm']:.4f} mm; "
+          f"scale 1σ {100 * cal.scale_sigma:.3f} %"
           + ("" if camera else " (no --camera: the lens is taken as distortion-free)"))
     print(f"wrote {path}")
     return 0

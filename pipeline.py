@@ -177,7 +177,8 @@ def track_run(
         tracks = add_plane_coordinates(tracks, cal, names)
         files["tracks"] = write_csv_atomic(folder / "tracks.csv", tracks)
         if {"A", "B", "C"} <= set(names):
-            kinematics, info = measure_kinematics(tracks, window_s=window_s)
+            kinematics, info = measure_kinematics(tracks, window_s=window_s,
+                                                  scale_sigma=cal.scale_sigma)
             flagged = {k: v["frames_flagged"] for k, v in info.links.items()
                        if v["frames_flagged"]}
             for k, n in flagged.items():

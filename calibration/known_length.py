@@ -89,8 +89,14 @@ def calibrate_known_length(
     o = _median_point(tracks, origin)
     c = _median_point(tracks, axis_to)
     axis = float(np.degrees(np.arctan2(-(c[1] - o[1]), c[0] - o[0])))
+    # The scale's error is that of the two markers' positions, and on compressed
+    # video most of a position's error persists from frame to frame (a bias), so
+    # the median over frames does not average it away: no 1/√n.
+    sig = [float(np.nanmedian(tracks.loc[both, f"{m}_sigma_px"])) if f"{m}_sigma_px" in tracks
+           else 0.0 for m in (a, b)]
     quality = {
         "mm_per_px": mm_per_px,
+        "scale_rel_sigma": float(np.hypot(*sig) / med) if np.all(np.isfinite(sig)) else 0.0,
         "origin_px": list(o),
         "x_axis_deg": axis,
         "known_length": f"{a}-{b}",

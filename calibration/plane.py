@@ -105,6 +105,12 @@ class PlaneCalibration:
         frob = ((x1 - x0) ** 2 + (y1 - y0) ** 2 + (x3 - x2) ** 2 + (y3 - y2) ** 2) / (2 * h) ** 2
         return np.sqrt(frob / 2.0)
 
+    @property
+    def scale_sigma(self) -> float:
+        """Relative 1-σ of the mapping's scale (dimensionless): an error shared
+        by every length and speed the run measures; angles do not see it."""
+        return float(self.quality.get("scale_rel_sigma", 0.0))
+
     def to_dict(self) -> dict:
         return {
             "method": self.method,
@@ -129,8 +135,15 @@ def similarity(mm_per_px: float, origin_px: tuple[float, float], x_axis_deg: flo
     return np.vstack([np.hstack([R, t[:, None]]), [0.0, 0.0, 1.0]])
 
 
-def _fit_homography(ideal_px: NDArray, plane_mm: NDArray) -> tuple[NDArray, float, float]:
-    """Least-squares homography (all points, no RANSAC) and its residuals (px, mm)."""
+def _fit_homography(ideal_px: NDArray, plane_mm: NDArray) -> tuple[NDArray, dict]:
+    """Least-squares homography (all points, no RANSAC) and its quality figures:
+    residuals (px, mm) and the relative 1-σ of its scale.
+
+    The scale's σ is that of a least-squares similarity through the same
+    points, to first order: the per-axis point scatter (RMS residual with the
+    homography's 8 parameters taken out of the 2n degrees of freedom) over
+    the points' RMS spread about their centroid.
+    """
     H, _ = cv2.findHomography(ideal_px.reshape(-1, 1, 2), plane_mm.reshape(-1, 1, 2), 0)
     if H is None or not np.all(np.isfinite(H)):
         raise CranktrackError("the points do not determine a plane mapping (are four of them "
@@ -140,7 +153,11 @@ def _fit_homography(ideal_px: NDArray, plane_mm: NDArray) -> tuple[NDArray, floa
     back = cv2.perspectiveTransform(plane_mm.reshape(-1, 1, 2).astype(np.float64),
                                     np.linalg.inv(H))
     rms_px = float(np.sqrt(np.mean(np.sum((back.reshape(-1, 2) - ideal_px) ** 2, axis=1))))
-    return H, rms_px, rms_mm
+    n = len(plane_mm)
+    per_axis = rms_mm * np.sqrt(n / max(2 * n - 8, 1))
+    spread = float(np.sqrt(np.sum((plane_mm - plane_mm.mean(axis=0)) ** 2)))
+    return H, {"points": n, "homography_rms_px": rms_px, "homography_rms_mm": rms_mm,
+               "scale_rel_sigma": float(per_axis / spread) if spread > 0 else 0.0}
 
 
 def board_plane(grey: NDArray[np.uint8], board: Board, camera: CameraCalibration | None
@@ -164,10 +181,8 @@ def board_plane(grey: NDArray[np.uint8], board: Board, camera: CameraCalibration
     obj, img = found
     img = img.reshape(-1, 2).astype(np.float64)
     ideal = camera.undistort_points(img) if camera is not None else img
-    H, rms_px, rms_mm = _fit_homography(ideal, obj[:, :2].astype(np.float64))
-    return PlaneCalibration("board-plane", H, size, camera,
-                            {"points": len(img), "homography_rms_px": rms_px,
-                             "homography_rms_mm": rms_mm, "board": board.to_dict()})
+    H, quality = _fit_homography(ideal, obj[:, :2].astype(np.float64))
+    return PlaneCalibration("board-plane", H, size, camera, {**quality, "board": board.to_dict()})
 
 
 def points_plane(image_px: NDArray, plane_mm: NDArray, image_size: tuple[int, int],
@@ -179,10 +194,8 @@ def points_plane(image_px: NDArray, plane_mm: NDArray, image_size: tuple[int, in
         raise CranktrackError(f"a plane needs at least 4 points with both pixel and mm "
                               f"coordinates; got {len(img)}")
     ideal = camera.undistort_points(img) if camera is not None else img
-    H, rms_px, rms_mm = _fit_homography(ideal, mm)
-    return PlaneCalibration("points-plane", H, tuple(image_size), camera,
-                            {"points": len(img), "homography_rms_px": rms_px,
-                             "homography_rms_mm": rms_mm})
+    H, quality = _fit_homography(ideal, mm)
+    return PlaneCalibration("points-plane", H, tuple(image_size), camera, quality)
 
 
 def align_to_markers(cal: PlaneCalibration, tracks: pd.DataFrame, origin: str = "A",

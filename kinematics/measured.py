@@ -8,8 +8,9 @@ a drive starts or stops) whose length is chosen from the data by
 leave-one-out cross-validation on θ.
 
 Every column carries a 1-σ propagated from the per-point ``_sigma_mm``, to
-first order. Positions (θ, L3) keep that σ: much of a tracker's error on
-compressed video is the same in every frame (a bias) and belongs there.
+first order, and, for lengths and speeds, from the calibration's scale.
+Positions (θ, L3) keep that σ: much of a tracker's error on compressed video
+is the same in every frame (a bias) and belongs there.
 Rates (ω, α, v_B, L3') see only the part that changes from frame to frame,
 so their propagated σ is *calibrated*: the leave-one-out residuals of θ show
 how large that part really is, and the rate σ are scaled by the ratio
@@ -76,41 +77,66 @@ def crank_angle(tracks: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     return theta, np.sqrt(var)
 
 
-def _noise_scale(loo: np.ndarray, sigma: np.ndarray, fit_sigma: np.ndarray) -> float:
-    """Ratio of the real noise to the propagated σ, from leave-one-out residuals.
+#: Samples in the running window of the noise scale: about a second at 30 fps.
+SCALE_WINDOW = 31
+
+
+def _noise_scale(loo: np.ndarray, sigma: np.ndarray, fit_sigma: np.ndarray,
+                 kink: np.ndarray) -> np.ndarray:
+    """Ratio of the real frame-to-frame noise to the propagated σ, per sample,
+    from leave-one-out residuals.
 
     A sample's leave-one-out residual has variance σᵢ² + (σ of the fit
-    without it)²; the robust ratio uses the median of the squared
-    normalised residuals over that of a χ²₁ variable (0.455).
+    without it)²; the ratio is the root of the mean squared normalised
+    residual over :data:`SCALE_WINDOW` samples around each one. Local, not
+    over the whole run, because the noise is not stationary: a still marker
+    on compressed video keeps its error from frame to frame (the codec copies
+    the block), while a moving one crosses the pixel grid and draws a new
+    error every frame — several times more frame-to-frame noise in the same
+    run (a median over the run, tried first, gave moving frames σ a third of
+    their errors). Samples at a ``kink`` (where the differentiator shifted
+    its window) whose residual is beyond 3σ of the local median level are
+    left out: that residual is the kink, not noise.
+    Samples with too few neighbours use the median over the run.
     """
     var = sigma**2 + fit_sigma**2
     ok = np.isfinite(loo) & (var > 0)
     if ok.sum() < 10:
-        return 1.0
-    return float(np.sqrt(np.median(loo[ok] ** 2 / var[ok]) / 0.4549364))
+        return np.ones_like(loo, dtype=float)
+    z2 = pd.Series(np.where(ok, loo**2 / np.where(ok, var, 1.0), np.nan))
+    roll = {"window": SCALE_WINDOW, "center": True, "min_periods": SCALE_WINDOW // 2}
+    level = z2.rolling(**roll).median() / 0.4549364
+    z2[(z2 > 9.0 * level) & kink] = np.nan
+    local = z2.rolling(**roll).mean()
+    local = local.fillna(float(np.median(z2[ok]))).to_numpy()
+    return np.sqrt(local)
 
 
 @dataclass(frozen=True)
 class MeasureInfo:
     """How the kinematics were measured: the window (samples and s), the
-    σ scale applied, the leave-one-out score of each candidate window and
-    the rigid-link figures (mm)."""
+    σ scale applied to the rates (median over the run, and its range, since
+    it follows the motion), the leave-one-out score of each candidate window
+    and the rigid-link figures (mm)."""
 
     window: int
     window_s: float
     sigma_scale: float
     window_scores: dict[int, float]
     links: dict[str, dict[str, float]]
+    sigma_scale_range: tuple[float, float] = (float("nan"), float("nan"))
 
     def to_dict(self) -> dict:
         return {"window_samples": self.window, "window_s": self.window_s,
                 "sigma_scale": self.sigma_scale,
+                "sigma_scale_range": list(self.sigma_scale_range),
                 "window_scores": {str(k): v for k, v in self.window_scores.items()},
                 "links": self.links}
 
 
 def measure_kinematics(
-    tracks: pd.DataFrame, window_s: float | None = None, order: int = 2
+    tracks: pd.DataFrame, window_s: float | None = None, order: int = 2,
+    scale_sigma: float = 0.0,
 ) -> tuple[pd.DataFrame, MeasureInfo]:
     """The kinematics table from a tracks table with plane coordinates.
 
@@ -123,6 +149,9 @@ def measure_kinematics(
         the data (leave-one-out cross-validation on θ).
     order : int
         Degree of the local polynomials.
+    scale_sigma : float
+        Relative 1-σ of the calibration's scale (``PlaneCalibration.scale_sigma``),
+        added in quadrature to the σ of lengths and speeds.
 
     Returns
     -------
@@ -142,7 +171,8 @@ def measure_kinematics(
         w, scores = window_samples(t, window_s, order), {}
 
     fit_theta = local_polynomial(t, theta, theta_sigma, w, order, adaptive=True)
-    scale = _noise_scale(fit_theta.loo, theta_sigma, fit_theta.value_sigma)
+    scale = _noise_scale(fit_theta.loo, theta_sigma, fit_theta.value_sigma,
+                         fit_theta.shifted)
 
     def diff(y: np.ndarray, s: np.ndarray, d: Derivatives | None = None) -> Derivatives:
         """Rates with σ = calibrated noise ⊕ window bias (|this − next longer window|)
@@ -181,6 +211,10 @@ def measure_kinematics(
         "L3_mm": L3_sigma,
         "L3_rate_mm_s": dL3.d1_sigma,
     }
+    # The calibration's scale error is shared by every frame's lengths and speeds.
+    for col, value in (("vB_x_mm_s", vx), ("vB_y_mm_s", vy), ("vB_mm_s", speed),
+                       ("L3_mm", L3), ("L3_rate_mm_s", dL3.d1)):
+        sigma[col] = np.hypot(sigma[col], np.abs(value) * scale_sigma)
     table = kinematics_table(t, theta, d_theta.d1, d_theta.d2, np.stack([vx, vy], axis=1), L3,
                              dL3.d1, sigma=sigma, frame=tracks["frame"].to_numpy())
     # A direction of travel is only measured while B measurably moves.
@@ -200,4 +234,5 @@ def measure_kinematics(
                        "frames_flagged": int(np.sum(jump & np.isfinite(length)))}
     table["rigid_ok"] = rigid_ok
     step = float(np.median(np.diff(t))) if t.size > 1 else float("nan")
-    return table, MeasureInfo(w, w * step, scale, scores, links)
+    return table, MeasureInfo(w, w * step, float(np.median(scale)), scores, links,
+                              (float(np.min(scale)), float(np.max(scale))))

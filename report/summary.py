@@ -80,7 +80,7 @@ def write_report(run: str | os.PathLike) -> Path:
     if cal:
         lines += ["", "## Calibration", "", f"method: {cal.get('method')}", ""]
         for k in ("length_std_mm", "length_relative_spread", "homography_rms_px",
-                  "homography_rms_mm", "check_residual_mm"):
+                  "homography_rms_mm", "check_residual_mm", "scale_rel_sigma"):
             if k in cal:
                 lines.append(f"- {k}: {cal[k]:.4g}")
     links = info.get("kinematics", {}).get("links")

@@ -82,3 +82,32 @@ def test_markers_never_seen_together_cannot_calibrate():
     tracks["C_ok"] = False
     with pytest.raises(CranktrackError, match="never found in the same frame"):
         calibrate_known_length(tracks, "A", "C", 160.8, (640, 480))
+
+
+def test_plane_scale_sigma_matches_the_scatter_of_refits():
+    # A second method for the reported scale σ: refit the same 4×6 board points
+    # with fresh pixel noise many times and measure the spread of the local scale.
+    from cranktrack.calibration.plane import points_plane
+
+    rng = np.random.default_rng(5)
+    mm = np.array([[x, y] for x in range(0, 100, 20) for y in range(0, 80, 20)], float)
+    px = 3.0 * mm + [100.0, 50.0]
+    scales, reported = [], []
+    for _ in range(300):
+        cal = points_plane(px + rng.normal(0, 0.3, px.shape), mm, (640, 480), None)
+        scales.append(float(cal.mm_per_px(np.array([250.0]), np.array([140.0]))[0]))
+        reported.append(cal.scale_sigma)
+    measured = np.std(scales) / np.mean(scales)
+    # 300 refits pin the spread to ±4 %; the first-order σ is that of a similarity,
+    # which a homography's extra freedom widens a little.
+    print(f"scale σ reported {np.median(reported):.3g}, refits {measured:.3g}")
+    assert np.median(reported) == pytest.approx(measured, rel=0.25)
+
+
+def test_known_length_scale_sigma_is_the_two_markers_sigma_over_the_length(tmp_path):
+    cam = Camera(640, 480, 2.5, (200.0, 300.0))
+    tracks, _ = _tracks_from_camera(cam)  # σ 0.1 px per marker, A–C 402 px apart
+    cal = calibrate_known_length(tracks, "A", "C", 160.8, (640, 480))
+    assert cal.scale_sigma == pytest.approx(np.hypot(0.1, 0.1) / (160.8 * 2.5), rel=1e-6)
+    again = load_calibration(save_calibration(tmp_path / "c.json", cal))
+    assert again.scale_sigma == cal.scale_sigma

@@ -96,6 +96,27 @@ def test_rate_sigma_is_calibrated_when_the_tracker_sigma_is_wrong(run640):
     assert np.nanmedian(bold["theta_deg_sigma"] / plain["theta_deg_sigma"]) == pytest.approx(5)
 
 
+def test_a_scale_error_widens_lengths_and_speeds_but_not_angles(run640):
+    # Redo the run with every mm coordinate 1 % larger: the shift in each length
+    # and speed is what a 1 % scale σ must cover; angles do not move.
+    run, _ = run640
+    wider, _ = measure_kinematics(run.tracks, scale_sigma=0.01)
+    plain, _ = measure_kinematics(run.tracks)
+    grown = run.tracks.copy()
+    for m in "ABC":
+        for c in ("_x_mm", "_y_mm", "_sigma_mm"):
+            grown[m + c] *= 1.01
+    big, _ = measure_kinematics(grown)
+    for col in ("L3_mm", "vB_mm_s", "vB_y_mm_s", "L3_rate_mm_s"):
+        shift = np.abs(big[col] - plain[col])
+        added = np.sqrt(wider[f"{col}_sigma"] ** 2 - plain[f"{col}_sigma"] ** 2)
+        ok = np.isfinite(shift) & (shift > 0)
+        np.testing.assert_allclose(added[ok], shift[ok], rtol=0.02, err_msg=col)
+    for col in ("theta_deg", "omega_rad_s"):
+        np.testing.assert_allclose(wider[f"{col}_sigma"], plain[f"{col}_sigma"])
+        np.testing.assert_allclose(big[col], plain[col], rtol=1e-9, atol=1e-12)
+
+
 def test_rigid_link_glitch_is_flagged(run640):
     run, _ = run640
     tracks = run.tracks.copy()
