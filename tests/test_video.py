@@ -6,7 +6,7 @@ import pytest
 
 from cranktrack.errors import CranktrackError
 from cranktrack.synthetic.video import VideoWriter
-from cranktrack.tracker.video import open_frames, timing_report
+from cranktrack.tracker.video import Frame, open_frames, timing_report
 
 
 def test_variable_frame_rate_timestamps_are_read_not_assumed(tmp_path):
@@ -48,3 +48,28 @@ def test_empty_folder_and_missing_path(tmp_path):
         open_frames(tmp_path)
     with pytest.raises(CranktrackError, match="does not exist"):
         open_frames(tmp_path / "missing.mp4")
+
+
+def test_h264_frames_keep_the_decoders_planes_and_convert_like_ffmpeg(tmp_path):
+    # FFmpeg's own RGB conversion of the same frames is the second method: the
+    # tracker's region-by-region conversion must agree with it to a few DN and
+    # a region must be exactly that part of the whole frame.
+    import av
+
+    rng = np.random.default_rng(2)
+    img = rng.integers(0, 256, (96, 128, 3), dtype=np.uint8)
+    img = cv2.GaussianBlur(img, (0, 0), 3)  # a scene, not noise the codec would drop
+    with VideoWriter(tmp_path / "h264.mp4", 128, 96, 30.0) as w:
+        for k in range(3):
+            w.write(img, k / 30)
+    frames = list(open_frames(tmp_path / "h264.mp4").frames())
+    assert frames[0].layout == "i420" and frames[0].size == (128, 96)
+    with av.open(str(tmp_path / "h264.mp4")) as c:
+        ffmpeg = [f.to_ndarray(format="rgb24") for f in c.decode(c.streams.video[0])]
+    for mine, ref in zip(frames, ffmpeg, strict=True):
+        d = np.abs(mine.region(0, 0, 128, 96).astype(int) - ref)
+        assert d.max() <= 3 and d.mean() < 2.5
+        whole = mine.rgb
+        for x0, y0, x1, y1 in ((7, 5, 40, 33), (0, 1, 3, 96), (101, 60, 128, 95)):
+            fresh = Frame(mine.index, mine.t_s, mine.pixels, mine.layout)  # nothing cached
+            np.testing.assert_array_equal(fresh.region(x0, y0, x1, y1), whole[y0:y1, x0:x1])

@@ -23,12 +23,12 @@ Cramér–Rao bound; ``bench/README.md`` says which won.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
-from scipy.special import erf
 
 #: Orthonormal basis of the chroma plane (rows), orthogonal to grey (1, 1, 1).
 CHROMA_BASIS = np.array(
@@ -100,26 +100,137 @@ def weighted_centroid(alpha: NDArray, x0: float, y0: float, guess: tuple[float, 
     return Centre(cx, cy, float(np.sqrt(var)), float(np.sqrt(total / np.pi)), True)
 
 
-def _disc_model(params: NDArray, xx: NDArray, yy: NDArray, J: NDArray) -> NDArray:
-    """Model values; fills the Jacobian ``J`` (n, 6) in place."""
-    cx, cy, r, s, a, b = params
-    dx, dy = xx - cx, yy - cy
-    d = np.sqrt(dx * dx + dy * dy) + 1e-9
-    z = (r - d) / s
-    phi = 0.5 * (1.0 + erf(z * _SQRT_HALF))
-    g = (a / s) * _INV_SQRT_2PI * np.exp(-0.5 * z * z)  # a · dΦ/dz / s
-    gd = g / d
-    J[:, 0] = gd * dx
-    J[:, 1] = gd * dy
-    J[:, 2] = g
-    J[:, 3] = -g * z
-    J[:, 4] = phi
-    J[:, 5] = 1.0
-    return b + a * phi
+# The per-marker work below runs on every frame for every marker, about a
+# thousand pixels each time; as numpy it was ~1.5 ms per marker, mostly the
+# overhead of many small array operations, which kept tracking slower than
+# decoding. Compiled (numba), one pass over the pixels does each step, and
+# ``nogil`` lets the decoder thread run beside it.
+
+_SQRT_HALF = math.sqrt(0.5)
+_INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
 
 
-_SQRT_HALF = np.sqrt(0.5)
-_INV_SQRT_2PI = 1.0 / np.sqrt(2.0 * np.pi)
+@njit(cache=True, nogil=True)
+def _disc_point(p: NDArray, x: float, y: float, jrow: NDArray) -> float:
+    """Model value at one pixel; its gradient over (cx, cy, r, s, a, b) into ``jrow``."""
+    dx, dy = x - p[0], y - p[1]
+    d = math.sqrt(dx * dx + dy * dy) + 1e-9
+    z = (p[2] - d) / p[3]
+    phi = 0.5 * (1.0 + math.erf(z * _SQRT_HALF))
+    g = (p[4] / p[3]) * _INV_SQRT_2PI * math.exp(-0.5 * z * z)  # a · dΦ/dz / s
+    jrow[0] = g * dx / d
+    jrow[1] = g * dy / d
+    jrow[2] = g
+    jrow[3] = -g * z
+    jrow[4] = phi
+    jrow[5] = 1.0
+    return p[5] + p[4] * phi
+
+
+@njit(cache=True, nogil=True)
+def _normal_equations(p: NDArray, X: NDArray, Y: NDArray, A: NDArray, n: int,
+                      JtJ: NDArray, Jtr: NDArray) -> float:
+    """Fill JᵀJ and Jᵀr at ``p`` over the first ``n`` pixels; return the RSS."""
+    jrow = np.empty(6)
+    JtJ[:, :] = 0.0
+    Jtr[:] = 0.0
+    rss = 0.0
+    for k in range(n):
+        r = A[k] - _disc_point(p, X[k], Y[k], jrow)
+        rss += r * r
+        for i in range(6):
+            Jtr[i] += jrow[i] * r
+            for j in range(i + 1):
+                JtJ[i, j] += jrow[i] * jrow[j]
+    for i in range(6):
+        for j in range(i):
+            JtJ[j, i] = JtJ[i, j]
+    return rss
+
+
+@njit(cache=True, nogil=True)
+def _cholesky(M: NDArray) -> tuple[NDArray, bool]:
+    """Lower Cholesky factor of a symmetric matrix, and whether it is positive definite."""
+    n = M.shape[0]
+    L = np.zeros_like(M)
+    for i in range(n):
+        for j in range(i + 1):
+            acc = M[i, j]
+            for k in range(j):
+                acc -= L[i, k] * L[j, k]
+            if i == j:
+                if not acc > 0.0:
+                    return L, False
+                L[i, i] = math.sqrt(acc)
+            else:
+                L[i, j] = acc / L[j, j]
+    return L, True
+
+
+@njit(cache=True, nogil=True)
+def _cho_solve(L: NDArray, b: NDArray) -> NDArray:
+    n = L.shape[0]
+    y = np.empty(n)
+    for i in range(n):
+        acc = b[i]
+        for k in range(i):
+            acc -= L[i, k] * y[k]
+        y[i] = acc / L[i, i]
+    x = np.empty(n)
+    for i in range(n - 1, -1, -1):
+        acc = y[i]
+        for k in range(i + 1, n):
+            acc -= L[k, i] * x[k]
+        x[i] = acc / L[i, i]
+    return x
+
+
+@njit(cache=True, nogil=True)
+def _fit_disc_compiled(alpha: NDArray, x0: float, y0: float, gx: float, gy: float,
+                       radius: float, p: NDArray, iterations: int, tol_px: float
+                       ) -> tuple[NDArray, NDArray, float, int, float, bool]:
+    """Gauss–Newton of :func:`fit_disc` from ``p``; returns (p, (JᵀJ)⁻¹, RSS,
+    pixels used, Σα, whether JᵀJ was positive definite at the end)."""
+    h, w = alpha.shape
+    X, Y, A = np.empty(h * w), np.empty(h * w), np.empty(h * w)
+    reach2 = (radius + 3.0) ** 2
+    n = 0
+    total = 0.0
+    for i in range(h):
+        for j in range(w):
+            a = alpha[i, j]
+            xv, yv = x0 + j, y0 + i
+            if np.isfinite(a) and (xv - gx) ** 2 + (yv - gy) ** 2 <= reach2:
+                X[n], Y[n], A[n] = xv, yv, a
+                total += a
+                n += 1
+    JtJ, Jtr = np.empty((6, 6)), np.empty(6)
+    inv = np.full((6, 6), np.nan)
+    if n < 7:
+        return p, inv, np.nan, n, total, False
+    L = np.empty((6, 6))
+    rss = np.nan
+    for _ in range(iterations):
+        rss = _normal_equations(p, X, Y, A, n, JtJ, Jtr)
+        for i in range(6):
+            JtJ[i, i] += 1e-9
+        L, ok = _cholesky(JtJ)
+        if not ok:
+            return p, inv, np.nan, n, total, False
+        step = _cho_solve(L, Jtr)
+        p = p + step
+        p[3] = max(p[3], 0.05)
+        if abs(step[0]) < tol_px and abs(step[1]) < tol_px:
+            break
+    # The covariance uses the last pass's JᵀJ and RSS, taken before its step:
+    # the step is under ``tol_px`` at convergence, so another pass over the
+    # pixels (a third of a typical fit's time) would change them by its square.
+    e = np.zeros(6)
+    for k in range(6):
+        e[:] = 0.0
+        e[k] = 1.0
+        inv[:, k] = _cho_solve(L, e)
+    return p, inv, rss, n, total, True
 
 
 def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
@@ -136,44 +247,21 @@ def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
     starts near its answer; it stops when the centre moves less than
     ``tol_px``.
     """
-    h, w = alpha.shape
-    xs = np.arange(w, dtype=np.float64) + x0
-    ys = np.arange(h, dtype=np.float64) + y0
-    alpha = np.asarray(alpha, np.float64)
-    use = (((xs[None, :] - guess[0]) ** 2 + (ys[:, None] - guess[1]) ** 2 <= (radius + 3.0) ** 2)
-           & np.isfinite(alpha))
-    iy, ix = np.nonzero(use)
-    X, Y, A = xs[ix], ys[iy], alpha[use]
-    J = np.empty((A.size, 6))
     shape = (radius, 0.5, 1.0, 0.0) if init is None else tuple(init)[-4:]
-    p = np.array([guess[0], guess[1], *shape], dtype=np.float64)
-    for _ in range(iterations):
-        res = A - _disc_model(p, X, Y, J)
-        JtJ = J.T @ J
-        try:
-            step = np.linalg.solve(JtJ + 1e-9 * np.eye(6), J.T @ res)
-        except np.linalg.LinAlgError:
-            return Centre(np.nan, np.nan, np.nan, radius, False)
-        p = p + step
-        p[3] = max(p[3], 0.05)
-        if abs(step[0]) < tol_px and abs(step[1]) < tol_px:
-            break
-    res = A - _disc_model(p, X, Y, J)
-    dof = max(A.size - 6, 1)
-    s2 = float(res @ res) / dof
-    try:
-        cov = np.linalg.inv(J.T @ J) * s2
-    except np.linalg.LinAlgError:
+    p0 = np.array([guess[0], guess[1], *shape], dtype=np.float64)
+    p, inv, rss, n, total, posdef = _fit_disc_compiled(
+        np.asarray(alpha, np.float64), float(x0), float(y0), float(guess[0]),
+        float(guess[1]), float(radius), p0, int(iterations), float(tol_px))
+    if not posdef:
         return Centre(np.nan, np.nan, np.nan, radius, False)
+    s2 = rss / max(n - 6, 1)
+    var = 0.5 * (inv[0, 0] + inv[1, 1]) * s2
     moved = np.hypot(p[0] - guess[0], p[1] - guess[1])
-    var = 0.5 * (cov[0, 0] + cov[1, 1])
-    # A near-singular fit can invert to a negative variance: no centre can be trusted then.
-    well_posed = bool(np.isfinite(var) and var >= 0)
     ok = bool(np.all(np.isfinite(p)) and moved < radius and 0 < p[2] < 3 * radius
-              and well_posed)
-    sigma = float(np.sqrt(var)) if well_posed else float("nan")
+              and np.isfinite(var) and var >= 0)
+    sigma = float(np.sqrt(var)) if ok or var >= 0 else float("nan")
     return Centre(float(p[0]), float(p[1]), sigma, float(p[2]), ok, float(np.sqrt(s2)),
-                  float(p[4]), tuple(float(v) for v in p), float(A.sum()))
+                  float(p[4]), tuple(float(v) for v in p), float(total))
 
 
 def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, float],
@@ -195,25 +283,68 @@ def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float
     Returns ``(alpha, marker_chroma_seen)``: the second is the median chroma
     of the middle of the patch, for following slow colour drift.
     """
-    P = np.ascontiguousarray(chroma(patch_rgb))
-    h, w = P.shape[:2]
-    dx = (np.arange(w, dtype=np.float32) + np.float32(x0 - centre[0]))[None, :]
-    dy = (np.arange(h, dtype=np.float32) + np.float32(y0 - centre[1]))[:, None]
-    rho = np.sqrt(dx * dx + dy * dy) + np.float32(1e-6)
-    inner = rho <= 0.6 * radius
-    seen = np.median(P[inner], axis=0) if inner.sum() >= 3 else P[int(h / 2), int(w / 2)]
-    m = seen if marker is None else np.asarray(marker, np.float32)
-    ux, uy = dx / rho, dy / rho
-    cx, cy = np.float32(centre[0] - x0), np.float32(centre[1] - y0)
-    # One remap samples the three ring radii, laid side by side.
-    ks = np.array([3.0, 4.0, 5.0], dtype=np.float32)[:, None, None] + np.float32(radius)
-    mx = np.concatenate(list(cx + ks * ux), axis=1)
-    my = np.concatenate(list(cy + ks * uy), axis=1)
-    ring = cv2.remap(P, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    b = (ring[:, :w] + ring[:, w : 2 * w] + ring[:, 2 * w :]) / np.float32(3.0)
-    d = m[None, None, :] - b
-    denom = (d * d).sum(axis=-1)
-    alpha = ((P - b) * d).sum(axis=-1) / np.maximum(denom, 1e-6)
-    alpha = alpha.astype(np.float64)
-    alpha[rho > radius + 2.0] = np.nan
+    known = marker is not None
+    m = np.asarray(marker if known else (0.0, 0.0), np.float64)
+    rgb = np.ascontiguousarray(patch_rgb, dtype=np.float64)
+    alpha, seen = _coverage_compiled(rgb, CHROMA_BASIS.astype(np.float64),
+                                     float(centre[0] - x0), float(centre[1] - y0),
+                                     float(radius), m, known)
+    return alpha, seen
+
+
+@njit(cache=True, nogil=True)
+def _bilinear(P: NDArray, x: float, y: float, out: NDArray) -> None:
+    """Add P sampled at (x, y) (bilinear, edges replicated) to ``out`` (2,)."""
+    h, w = P.shape[0], P.shape[1]
+    x = min(max(x, 0.0), w - 1.0)
+    y = min(max(y, 0.0), h - 1.0)
+    i, j = min(int(y), h - 2), min(int(x), w - 2)
+    fy, fx = y - i, x - j
+    for c in range(2):
+        out[c] += ((1 - fy) * ((1 - fx) * P[i, j, c] + fx * P[i, j + 1, c])
+                   + fy * ((1 - fx) * P[i + 1, j, c] + fx * P[i + 1, j + 1, c]))
+
+
+@njit(cache=True, nogil=True)
+def _coverage_compiled(rgb: NDArray, basis: NDArray, cx: float, cy: float, radius: float,
+                       marker: NDArray, known: bool) -> tuple[NDArray, NDArray]:
+    """:func:`local_coverage` on an RGB patch (h, w, 3), centre in patch px."""
+    h, w = rgb.shape[0], rgb.shape[1]
+    P = np.empty((h, w, 2))
+    for i in range(h):
+        for j in range(w):
+            for c in range(2):
+                P[i, j, c] = (basis[c, 0] * rgb[i, j, 0] + basis[c, 1] * rgb[i, j, 1]
+                              + basis[c, 2] * rgb[i, j, 2])
+    inner_x, inner_y = np.empty(h * w), np.empty(h * w)
+    n_inner = 0
+    for i in range(h):
+        for j in range(w):
+            if math.hypot(j - cx, i - cy) + 1e-6 <= 0.6 * radius:
+                inner_x[n_inner] = P[i, j, 0]
+                inner_y[n_inner] = P[i, j, 1]
+                n_inner += 1
+    seen = np.empty(2)
+    if n_inner >= 3:
+        seen[0] = np.median(inner_x[:n_inner])
+        seen[1] = np.median(inner_y[:n_inner])
+    else:
+        seen[0], seen[1] = P[h // 2, w // 2, 0], P[h // 2, w // 2, 1]
+    m = marker if known else seen
+    alpha = np.full((h, w), np.nan)
+    b = np.empty(2)
+    for i in range(h):
+        for j in range(w):
+            dx, dy = j - cx, i - cy
+            rho = math.sqrt(dx * dx + dy * dy) + 1e-6
+            if rho > radius + 2.0:
+                continue
+            ux, uy = dx / rho, dy / rho
+            b[:] = 0.0
+            for k in (3.0, 4.0, 5.0):
+                _bilinear(P, cx + (radius + k) * ux, cy + (radius + k) * uy, b)
+            b /= 3.0
+            d0, d1 = m[0] - b[0], m[1] - b[1]
+            denom = max(d0 * d0 + d1 * d1, 1e-6)
+            alpha[i, j] = ((P[i, j, 0] - b[0]) * d0 + (P[i, j, 1] - b[1]) * d1) / denom
     return alpha, seen

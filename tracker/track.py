@@ -29,7 +29,7 @@ from cranktrack.tracker.markers import (
     white_balance_gains,
 )
 from cranktrack.tracker.refine import Centre, fit_disc, local_coverage, weighted_centroid
-from cranktrack.tracker.video import FrameSource, timing_report
+from cranktrack.tracker.video import Frame, FrameSource, timing_report
 
 #: Why a marker has no position in a frame (the ``_status`` column).
 STATUSES = {
@@ -115,15 +115,20 @@ class _MarkerState:
         return float(np.hypot(x1 - x0, y1 - y0))
 
 
-def _patch(rgb: NDArray[np.uint8], cx: float, cy: float, half: float
+def _patch(image: Frame | NDArray, cx: float, cy: float, half: float
            ) -> tuple[NDArray[np.uint8], int, int]:
-    h, w = rgb.shape[:2]
+    """The pixels within ``half`` px of (cx, cy), clipped to the image, and the
+    patch's top-left pixel. ``image`` is a frame (converted to RGB only
+    there) or an array (RGB, HSV)."""
+    w, h = image.size if isinstance(image, Frame) else (image.shape[1], image.shape[0])
     x0, y0 = max(int(cx - half), 0), max(int(cy - half), 0)
     x1, y1 = min(int(cx + half) + 1, w), min(int(cy + half) + 1, h)
-    return rgb[y0:y1, x0:x1], x0, y0
+    if isinstance(image, Frame):
+        return image.region(x0, y0, x1, y1), x0, y0
+    return image[y0:y1, x0:x1], x0, y0
 
 
-def refine(rgb: NDArray[np.uint8], guess: tuple[float, float], radius: float,
+def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius: float,
            marker: NDArray | None = None, init: tuple[float, ...] | None = None
            ) -> tuple[Centre, NDArray | None]:
     """Sub-pixel centre of a marker near ``guess`` (see :mod:`.refine`).
@@ -135,7 +140,7 @@ def refine(rgb: NDArray[np.uint8], guess: tuple[float, float], radius: float,
     to the fit. ``marker`` is the learned marker chroma (None at
     acquisition). Returns the centre and the chroma seen in its middle.
     """
-    patch, x0, y0 = _patch(rgb, guess[0], guess[1], radius + 9)
+    patch, x0, y0 = _patch(image, guess[0], guess[1], radius + 9)
     alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker)
     c = None
     if init is None:
@@ -151,7 +156,7 @@ def refine(rgb: NDArray[np.uint8], guess: tuple[float, float], radius: float,
         if not fit.ok or np.hypot(fit.x - guess[0], fit.y - guess[1]) <= 0.5:
             break
         guess = (fit.x, fit.y)
-        patch, x0, y0 = _patch(rgb, guess[0], guess[1], radius + 9)
+        patch, x0, y0 = _patch(image, guess[0], guess[1], radius + 9)
         alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker)
         fit = fit_disc(alpha, x0, y0, guess, radius, init=fit.params)
     if fit.ok or c is None:
@@ -165,9 +170,9 @@ def _plausible(c: Centre, guess: tuple[float, float], radius: float) -> bool:
         c.x - guess[0], c.y - guess[1]) < radius
 
 
-def _locate(rgb: NDArray[np.uint8], state: _MarkerState, t: float, hsv_cache: dict
+def _locate(frame: Frame, state: _MarkerState, t: float, hsv_cache: dict
             ) -> tuple[Centre | None, str]:
-    h, w = rgb.shape[:2]
+    w, h = frame.size
     pred = state.predict(t)
     blob, status = None, "not_found"
     if pred is not None and state.radius is not None:
@@ -178,22 +183,22 @@ def _locate(rgb: NDArray[np.uint8], state: _MarkerState, t: float, hsv_cache: di
             # Following: refine straight from the prediction; the colour search
             # is only needed when that fails (fast motion, occlusion, a jump).
             if r + 2 <= pred[0] <= w - r - 3 and r + 2 <= pred[1] <= h - r - 3:
-                centre, seen = refine(rgb, pred, r, state.marker, init=state.shape)
+                centre, seen = refine(frame, pred, r, state.marker, init=state.shape)
                 if _plausible(centre, pred, r):
                     if not state.whole(centre):
                         return None, "partly_covered"
                     state.remember(centre, seen)
                     return centre, "ok"
             half = 3.0 * r + 2.0 * state.speed_px() + 4.0
-            patch, x0, y0 = _patch(rgb, pred[0], pred[1], half)
+            patch, x0, y0 = _patch(frame, pred[0], pred[1], half)
             hsv = balanced_hsv(patch, hsv_cache.get("gains"))
             blob, status = choose_blob(find_blobs(hsv, state.spec, x0, y0), state.area, pred)
     if blob is None:
         # Lost (or never seen): search the whole frame, white-balanced.
         if "full" not in hsv_cache:
             if hsv_cache.get("gains") is None:
-                hsv_cache["gains"] = white_balance_gains(rgb)
-            hsv_cache["full"] = balanced_hsv(rgb, hsv_cache["gains"])
+                hsv_cache["gains"] = white_balance_gains(frame.rgb)
+            hsv_cache["full"] = balanced_hsv(frame.rgb, hsv_cache["gains"])
         blob, full_status, rivals = acquire(hsv_cache["full"], state.spec, state.area, pred)
         if blob is None:
             return None, status if status == "out_of_view" else full_status
@@ -209,7 +214,7 @@ def _locate(rgb: NDArray[np.uint8], state: _MarkerState, t: float, hsv_cache: di
         hsv_patch, x0, y0 = _patch(hsv_cache["full"], blob.x, blob.y, radius + 3)
         state.spec = learn_spec(state.spec, hsv_patch, (blob.x, blob.y), radius, x0, y0)
         state.learned = True
-    centre, seen = refine(rgb, (blob.x, blob.y), radius, state.marker)
+    centre, seen = refine(frame, (blob.x, blob.y), radius, state.marker)
     if not centre.ok or (state.marker is not None
                          and not GAIN_RANGE[0] < centre.gain < GAIN_RANGE[1]):
         return None, "refine_failed"
@@ -312,7 +317,7 @@ def track(
             row: list = [frame.index, frame.t_s]
             hsv_cache: dict = state.balance.copy()
             for st in state.markers:
-                centre, status = _locate(frame.rgb, st, frame.t_s, hsv_cache)
+                centre, status = _locate(frame, st, frame.t_s, hsv_cache)
                 state.balance["gains"] = hsv_cache.get("gains")
                 if centre is None:
                     row += [np.nan, np.nan, np.nan, False, status]
