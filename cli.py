@@ -426,8 +426,14 @@ def _print_fit(report: dict) -> None:
                      f"{report[f'fit_percent_{key}']:.3f}", str(report[f"residual_white_{key}"])])
     print(_format_table(rows))
     accepted = [c for c in report["candidates"] if c["accepted"]]
+    fm = report.get("frame_motion") or {}
     if not accepted:
-        print("effects accepted: none (no candidate explains the residual beyond the noise)")
+        print("effects accepted on θ: none (no candidate explains the residual beyond the "
+              "noise)")
+    if fm.get("accepted"):
+        print(f"effect accepted (A and C tracks): pivot_amp_mm: the frame shakes "
+              f"{fm['amp_mm']:.4g} ± {fm['amp_sigma_mm']:.2g} mm at {fm['hz']:.4g} ± "
+              f"{fm['hz_sigma']:.2g} Hz (ΔBIC {fm['delta_bic']:.0f}); θ does not see it, v_B does")
     final = report["parameters"]
     for c in accepted:
         values = ", ".join(f"{k} = {final[k]['value']:.4g} ± {final[k]['sigma']:.2g}"

@@ -10,7 +10,7 @@ import os
 import pickle
 import platform
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -28,6 +28,7 @@ from cranktrack.errors import CranktrackError
 from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic, write_text_atomic
 from cranktrack.kinematics.compare import Comparison, compare_spool
 from cranktrack.kinematics.discrepancy import CameraView, LoopResult, close_loop
+from cranktrack.kinematics.frame_motion import frame_shake
 from cranktrack.kinematics.measured import measure_kinematics
 from cranktrack.kinematics.plots import plot_comparison
 from cranktrack.report.fit import write_fit_report
@@ -262,6 +263,12 @@ def fit_run(run: Path, model: str, known: dict[str, float]) -> tuple[LoopResult,
     measured = read_kinematics(run)
     result = close_loop(measured, known, model, context=_image_context(run, measured),
                         view=camera_view(run))
+    try:
+        shake = frame_shake(pd.read_csv(run / "tracks.csv"))
+    except (OSError, ValueError):
+        shake = None
+    if shake is not None:
+        result = replace(result, frame_motion=shake.to_dict())
     ok = np.isfinite(measured["t_s"]) & np.isfinite(measured["theta_deg"])
     files = write_fit_report(run / "fit", result, measured["t_s"].to_numpy(float)[ok])
     files.append(write_report(run))

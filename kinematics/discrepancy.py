@@ -907,10 +907,18 @@ class LoopResult:
     tracker_sigma_deg: float
     links: dict = field(default_factory=dict)
     messages: list[str] = field(default_factory=list)
+    #: The frame-motion check (:func:`.frame_motion.frame_shake`), when the run has
+    #: plane tracks of A and C: a shake θ cannot show.
+    frame_motion: dict | None = None
+
+    @property
+    def shake_accepted(self) -> bool:
+        return bool(self.frame_motion and self.frame_motion["accepted"])
 
     @property
     def effects(self) -> list[str]:
-        return list(self.final.effects)
+        """Accepted effects in order: θ's, then a shaking frame if found."""
+        return list(self.final.effects) + (["pivot_amp_mm"] if self.shake_accepted else [])
 
     def to_dict(self) -> dict:
         spec = MODELS[self.model]
@@ -923,6 +931,12 @@ class LoopResult:
             if k in sig:
                 entry.update(sigma=sig[k], ci95=[v - 1.96 * sig[k], v + 1.96 * sig[k]])
             params[k] = entry
+        if self.shake_accepted:
+            fm = self.frame_motion
+            for k, unit, v, sd in (("pivot_amp_mm", "mm", fm["amp_mm"], fm["amp_sigma_mm"]),
+                                   ("pivot_hz", "Hz", fm["hz"], fm["hz_sigma"])):
+                params[k] = {"value": v, "unit": unit, "fixed": False, "sigma": sd,
+                             "ci95": [v - 1.96 * sd, v + 1.96 * sd]}
         before, after = self.diagnosis_before, self.diagnosis_after
         unexplained = None
         # Against the tracker's own σ: the noise model's σ grows with whatever
@@ -964,6 +978,7 @@ class LoopResult:
             "diagnosis_before": before,
             "diagnosis_after": after,
             "messages": self.messages,
+            "frame_motion": self.frame_motion,
         }
 
 

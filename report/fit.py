@@ -39,9 +39,9 @@ def plot_residuals(table: pd.DataFrame, result: LoopResult, path: Path) -> Path:
     ax = axes[0]
     ax.plot(t, table["theta_deg_measured"], ".", ms=3, color="tab:blue", label="measured")
     ax.plot(t, table["theta_deg_base"], "-", lw=1, color="tab:red", label="base model")
-    if result.effects:
+    if result.final.effects:
         ax.plot(t, table["theta_deg_final"], "--", lw=1, color="tab:green",
-                label="with " + ", ".join(result.effects))
+                label="with " + ", ".join(result.final.effects))
     ax.set_ylabel("θ (deg)")
     ax.legend(fontsize=8)
     sigma = result.noise.sigma_deg
@@ -141,6 +141,21 @@ def report_markdown(report: dict) -> str:
         lines.append("")
         lines.append(f"Camera effect suspected: {report['camera_effect_suspected']} (the "
                      f"tracker's σ allows {links['crank_std_expected_mm']:.4f} mm on |AB|).")
+    fm = report.get("frame_motion")
+    if fm:
+        lines += ["", "## Is the frame still? (A and C across the A–C line; θ cannot show this)",
+                  ""]
+        if fm["accepted"]:
+            lines.append(f"The frame shakes: {fm['amp_mm']:.4g} ± {fm['amp_sigma_mm']:.2g} mm "
+                         f"at {fm['hz']:.4g} ± {fm['hz_sigma']:.2g} Hz (ΔBIC "
+                         f"{fm['delta_bic']:.1f}); A and C move {fm['rmse_before_mm']:.4g} mm "
+                         f"RMS across the line, {fm['rmse_after_mm']:.4g} mm once the shake is "
+                         "taken out. θ and ω do not see it; the velocity of B carries the "
+                         "frame's own velocity. Fix the bench or the pivot's mount.")
+        else:
+            lines.append(f"Still, as far as the tracks tell: {fm['reason'] or 'no shake'} "
+                         f"(A and C move {fm['rmse_before_mm']:.4g} mm RMS across the line; "
+                         f"the tracker's σ there is {fm['tracker_sigma_mm']:.4g} mm).")
     if report["unexplained"]:
         lines += ["", f"**Unexplained:** {report['unexplained']}."]
     for m in report["messages"]:
@@ -156,6 +171,10 @@ def fit_report(result: LoopResult) -> dict:
     report["effect_docs"] = {name: {"shows_as": library[name].shows_as,
                                     "also_looks_like": library[name].also_looks_like}
                              for name in result.effects if name in library}
+    if result.shake_accepted:
+        report["effect_docs"]["pivot_amp_mm"] = {
+            "shows_as": "A and C moving together across the A–C line, periodically",
+            "also_looks_like": ""}
     return report
 
 

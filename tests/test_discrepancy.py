@@ -200,6 +200,25 @@ def test_a_tracked_render_without_effects_gets_none(rendered, seed):
         assert report["rmse_after_deg"] <= 1.5 * floor_deg(scene, run)
 
 
+def test_a_shaking_frame_is_found_from_a_and_c_though_theta_cannot_show_it(rendered):
+    scene, run = rendered("shake", ("pivot_amp_mm=0.3",))  # at the default 5 Hz
+    report = fit(run, KNOWN)
+    assert report["effects"] == ["pivot_amp_mm"]
+    recovered(report, "pivot_amp_mm", 0.3)
+    recovered(report, "pivot_hz", 5.0)
+    assert report["rmse_after_deg"] <= 1.5 * floor_deg(scene, run)  # θ: nothing to explain
+    # The floor of the across-line motion: tracked mean of A and C against the truth's.
+    tracks, truth = pd.read_csv(run / "tracks.csv"), pd.read_csv(scene / "truth.csv")
+    got = 0.5 * (tracks["A_y_mm"] + tracks["C_y_mm"]).to_numpy()
+    true = 0.5 * (truth["A_y_mm"] + truth["C_y_mm"]).to_numpy()
+    e = got - np.sign(np.corrcoef(got, true)[0, 1]) * true
+    floor = float(np.std(e))
+    fm = report["frame_motion"]
+    assert fm["rmse_before_mm"] > 5 * floor
+    assert fm["rmse_after_mm"] <= 1.5 * floor, (fm, floor)
+    assert "The frame shakes" in (run / "fit" / "report.md").read_text()
+
+
 def test_a_rolling_shutter_is_reported_as_a_delay_with_what_tells_it_apart(rendered):
     readout = 0.033
     scene, run = rendered("rolling", (f"readout_s={readout}",))
