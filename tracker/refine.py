@@ -259,7 +259,7 @@ def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
     moved = np.hypot(p[0] - guess[0], p[1] - guess[1])
     ok = bool(np.all(np.isfinite(p)) and moved < radius and 0 < p[2] < 3 * radius
               and np.isfinite(var) and var >= 0)
-    sigma = float(np.sqrt(var)) if ok or var >= 0 else float("nan")
+    sigma = float(np.sqrt(var)) if np.isfinite(var) and var >= 0 else float("nan")
     return Centre(float(p[0]), float(p[1]), sigma, float(p[2]), ok, float(np.sqrt(s2)),
                   float(p[4]), tuple(float(v) for v in p), float(total))
 
