@@ -85,7 +85,7 @@ def main() -> None:
             each = [100 * np.mean(np.abs(p[0]) < p[1]) for p in pooled[col]]
             worst = max(100 * np.sqrt(np.mean(p[0] ** 2)) / p[2] for p in pooled[col])
             ratio = np.sqrt(np.mean(e**2)) / np.sqrt(np.mean(s**2))
-            print(f"{col:14s} {100 * np.mean(np.abs(e) < s):6.0f}% "
+            print(f"{col:14s} {100 * np.mean(np.abs(e) < s):6.1f}% "
                   f"{min(each):9.0f}% to {max(each):4.0f}% {ratio:16.2f} {worst:16.2f}%")
     print("(coverage target: 60–75 % of true values inside ±1σ)")
 

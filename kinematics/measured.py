@@ -13,8 +13,9 @@ Positions (θ, L3) keep that σ: much of a tracker's error on compressed video
 is the same in every frame (a bias) and belongs there.
 Rates (ω, α, v_B, L3') see only the part that changes from frame to frame,
 so their propagated σ is *calibrated*: the leave-one-out residuals of θ show
-how large that part really is, and the rate σ are scaled by the ratio
-(reported as ``sigma_scale``). The differentiator's own bias — a polynomial
+how large that part really is, and the rate σ are scaled by the ratio,
+taken over about a second around each frame (its median over the run is
+reported as ``sigma_scale``). The differentiator's own bias — a polynomial
 fitted to a curve — is estimated as the difference from the next longer
 window and added in quadrature.
 
@@ -93,11 +94,11 @@ def _noise_scale(loo: np.ndarray, sigma: np.ndarray, fit_sigma: np.ndarray,
     on compressed video keeps its error from frame to frame (the codec copies
     the block), while a moving one crosses the pixel grid and draws a new
     error every frame — several times more frame-to-frame noise in the same
-    run (a median over the run, tried first, gave moving frames σ a third of
-    their errors). Samples at a ``kink`` (where the differentiator shifted
+    run (a median over the run, tried first, gave moving frames a σ a third
+    to a quarter of their errors). Samples at a ``kink`` (where the differentiator shifted
     its window) whose residual is beyond 3σ of the local median level are
     left out: that residual is the kink, not noise.
-    Samples with too few neighbours use the median over the run.
+    Samples with too few neighbours use the mean over the run.
     """
     var = sigma**2 + fit_sigma**2
     ok = np.isfinite(loo) & (var > 0)
@@ -108,7 +109,7 @@ def _noise_scale(loo: np.ndarray, sigma: np.ndarray, fit_sigma: np.ndarray,
     level = z2.rolling(**roll).median() / 0.4549364
     z2[(z2 > 9.0 * level) & kink] = np.nan
     local = z2.rolling(**roll).mean()
-    local = local.fillna(float(np.median(z2[ok]))).to_numpy()
+    local = local.fillna(float(np.nanmean(z2))).to_numpy()
     return np.sqrt(local)
 
 
