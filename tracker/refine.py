@@ -36,6 +36,10 @@ CHROMA_BASIS = np.array(
 ) / np.array([[np.sqrt(2.0)], [np.sqrt(6.0)]], dtype=np.float32)
 
 
+#: The same basis in double precision, for the compiled coverage kernel.
+_BASIS64 = CHROMA_BASIS.astype(np.float64)
+
+
 def chroma(rgb: NDArray) -> NDArray[np.float32]:
     """Chroma of RGB pixels, shape (..., 2), in DN."""
     return np.asarray(rgb, dtype=np.float32) @ CHROMA_BASIS.T
@@ -285,8 +289,9 @@ def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float
     """
     known = marker is not None
     m = np.asarray(marker if known else (0.0, 0.0), np.float64)
-    rgb = np.ascontiguousarray(patch_rgb, dtype=np.float64)
-    alpha, seen = _coverage_compiled(rgb, CHROMA_BASIS.astype(np.float64),
+    # The patch goes in as it is (a uint8 view of the frame): the kernel reads it
+    # pixel by pixel, so a float copy per marker per frame would be wasted.
+    alpha, seen = _coverage_compiled(np.asarray(patch_rgb), _BASIS64,
                                      float(centre[0] - x0), float(centre[1] - y0),
                                      float(radius), m, known)
     return alpha, seen
