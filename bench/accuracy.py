@@ -36,7 +36,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import scene
 
 from cranktrack.synthetic.bounds import marker_crb_px
-from cranktrack.synthetic.scene import RenderSettings
+from cranktrack.synthetic.scene import RenderSettings, SceneFiles
 from cranktrack.tracker.markers import DEFAULT_MARKERS, choose_blob, find_blobs
 from cranktrack.tracker.refine import fit_disc, local_coverage, weighted_centroid
 from cranktrack.tracker.track import _patch, refine, track
@@ -76,13 +76,18 @@ def candidates(rgb, spec, radius):
     return out, fit_disc
 
 
+def case_scene(label: str, settings: RenderSettings
+               ) -> tuple[SceneFiles, pd.DataFrame, dict, float]:
+    """One case's render (made once), its truth, scene.json and marker radius (px)."""
+    files = scene(label.split(",")[0].replace(" ", "_") + ("_noisy" if settings.noise_dn
+                                                            else "_clean"), settings)
+    meta = json.loads(files.scene.read_text())
+    return files, pd.read_csv(files.truth), meta, meta["style"]["marker_radius_px"]
+
+
 def main() -> None:
     for label, settings in CASES.items():
-        files = scene(label.split(",")[0].replace(" ", "_") + ("_noisy" if settings.noise_dn
-                                                                else "_clean"), settings)
-        truth = pd.read_csv(files.truth)
-        meta = json.loads(files.scene.read_text())
-        radius = meta["style"]["marker_radius_px"]
+        files, truth, meta, radius = case_scene(label, settings)
         errs: dict = {}
         t0 = time.perf_counter()
         for frame in open_frames(files.video).frames():
