@@ -190,8 +190,10 @@ class CameraView:
     side: float
 
 
-#: The camera candidates' effect parameters, all "no effect" at 0.
+#: The camera candidates' effect parameters that bend the image, all "no effect" at 0.
 CAMERA_PARAMETERS = ("lens_edge_pct", "tilt_vertical_deg", "tilt_horizontal_deg")
+#: The rolling shutter's readout time (s): it bends time, not the image.
+READOUT = "readout_s"
 
 _CAMERA_SEPARATION = ("calibrate the camera with a chessboard (`cranktrack calibrate camera`, "
                       "then `calibrate plane` with it): that measures the lens and the plane's "
@@ -237,6 +239,18 @@ CAMERA_CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
               also_looks_like="a camera tilt does when B stays on one side of the image"),
     _tilt("vertical"),
     _tilt("horizontal"),
+    Candidate(READOUT, "camera", (Parameter(READOUT, "s", -0.2, 0.2),), ((0.02,), (-0.02,)),
+              0.0, (-0.1, 0.1),
+              "a rolling shutter: the sensor reads its rows one after another over this "
+              "time, so B is caught readout × (its image row / the image height) after the "
+              "frame's timestamp; a delay that follows B's row (negative: rows read bottom "
+              "to top). The frame's timestamp is taken as the first row's",
+              needs_known=("start_s", "current_on_s"),
+              separated_by="film an LED lit with the drive in several image rows, or turn the "
+              "camera by 90°: a rolling shutter's delay follows the image row, a clock offset "
+              "does not",
+              also_looks_like="a clock offset (time_offset_s), when B's row changes little "
+              "over the stroke, or a camera whose timestamp is not the first row's"),
 )}
 
 
@@ -301,35 +315,53 @@ def _camera_maps(values: dict[str, float], size: tuple[int, int]
     return seen, ideal
 
 
-def camera_theta(theta: NDArray, values: dict[str, float], view: CameraView) -> NDArray:
-    """The angle the run would measure for true angles ``theta`` (rad) through the
-    camera effects in ``values`` (:data:`CAMERA_CANDIDATES`).
-
-    A and C are placed where the measured ones would be without the effects,
-    B on the crank at ``theta`` with |AB|/|AC| = L2/L1; B is imaged through the
-    effects and all three are mapped to the plane by the run's own calibration.
-    """
+def _crank_tip(theta: NDArray, values: dict[str, float], view: CameraView
+               ) -> tuple[NDArray, NDArray]:
+    """B in the plane at true angles ``theta`` (rad), A and C where the measured ones
+    would be without the camera effects in ``values``, |AB|/|AC| = L2/L1; and B's
+    image point through those effects, px."""
     seen, ideal = _camera_maps(values, view.size)
-    pivots = ideal(np.vstack([view.A_px, view.C_px]))
-    A, C = view.to_plane(pivots)
+    A, C = view.to_plane(ideal(np.vstack([view.A_px, view.C_px])))
     span = C - A
     e = span / np.hypot(*span)
     n = view.side * np.array([-e[1], e[0]])
     crank = values["L2_mm"] / values["L1_mm"] * np.hypot(*span)
     B = A + crank * (np.cos(theta)[:, None] * e + np.sin(theta)[:, None] * n)
-    Bm = view.to_plane(seen(view.to_image(B)))
+    return B, seen(view.to_image(B))
+
+
+def camera_theta(theta: NDArray, values: dict[str, float], view: CameraView) -> NDArray:
+    """The angle the run would measure for true angles ``theta`` (rad) through the
+    camera effects in ``values`` (:data:`CAMERA_CANDIDATES`).
+
+    B is placed by :func:`_crank_tip`, imaged through the effects and mapped
+    back to the plane by the run's own calibration, as are the measured A and C.
+    """
+    Bm = view.to_plane(_crank_tip(theta, values, view)[1])
     Am, Cm = view.to_plane(np.vstack([view.A_px, view.C_px]))
     u, v = Cm - Am, Bm - Am
     return np.arctan2(np.abs(u[0] * v[:, 1] - u[1] * v[:, 0]), v @ u)
 
 
 def _with_camera(simulate: Callable, view: CameraView | None) -> Callable:
-    """``simulate`` followed by the camera effects, when there are any."""
+    """``simulate`` followed by the camera effects, when there are any.
+
+    A rolling shutter simulates again at the times B is caught (A and C stand
+    still on these beds, so B's time is θ's): B's row moves by far less than
+    the image between that time and the frame's, so one correction is enough.
+    """
     if view is None:
         return simulate
 
     def run(values: dict[str, float], t_s: NDArray) -> NDArray:
         theta = simulate(values, t_s)
+        readout = values.get(READOUT, 0.0)
+        if readout:
+            row = np.clip(_crank_tip(theta, values, view)[1][:, 1], 0.0, view.size[1])
+            late = t_s + readout * row / view.size[1]
+            # A negative readout can put the first frame before the first time asked for;
+            # the models take times in order, which a readout shorter than a frame keeps.
+            theta = simulate(values, late)
         if not any(values.get(k, 0.0) for k in CAMERA_PARAMETERS):
             return theta
         return camera_theta(theta, values, view)
@@ -923,7 +955,8 @@ class LoopResult:
     def to_dict(self) -> dict:
         spec = MODELS[self.model]
         units = {**{k: p.unit for k, p in spec.base.items()},
-                 **{p.name: p.unit for c in spec.candidates.values() for p in c.parameters}}
+                 **{p.name: p.unit for c in (*spec.candidates.values(),
+                                             *CAMERA_CANDIDATES.values()) for p in c.parameters}}
         sig = self.final.sigmas(self.noise)
         params = {}
         for k, v in self.final.values.items():
