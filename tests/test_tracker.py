@@ -48,8 +48,9 @@ def test_lossless_noise_free_is_sub_hundredth_pixel(render):
     for m in "ABC":
         e = _errors(result.tracks, truth, m)
         assert len(e) == 60
-        # bench: ≤ 0.005 px at r = 15 px; at r = 7.5 px we see ≈ 0.008 px.
-        assert np.sqrt(np.mean(e**2)) < 0.015, m
+        # bench: ≤ 0.0012 px at r = 15 px (the chroma fit alone, 0.003–0.005); at
+        # r = 7.5 px we see 0.0003–0.0006 px.
+        assert np.sqrt(np.mean(e**2)) < 0.003, m
 
 
 def test_noisy_lossless_near_the_cramer_rao_bound_and_sigma_honest(render):
@@ -62,13 +63,13 @@ def test_noisy_lossless_near_the_cramer_rao_bound_and_sigma_honest(render):
         e = _errors(result.tracks, truth, m)
         per_axis = np.sqrt(np.mean(e**2) / 2)
         full, chroma_only = marker_crb_px(pts, m, BASE["size"], scene["camera"]["px_per_mm"], 2.5)
-        # The estimator sees chroma only (it must ignore grey links): demand it
-        # within 3× of that bound (bench: 1.1–1.4× at r = 15 px).
+        # Lossless RGB frames: the luminance of the clean edge sectors joins the
+        # chroma (bench: 1.2–1.35× the full bound at r = 15 px; here 1.15–1.5×).
         assert full < chroma_only
-        assert per_axis < 3.0 * chroma_only + 0.006, (m, per_axis, chroma_only)
-        # The reported σ is the right size: within a factor 2 of the actual error.
+        assert per_axis < 1.8 * full, (m, per_axis, full)
+        # The reported σ is the right size (here 0.8–1.1 of the actual error).
         sigma = result.tracks[f"{m}_sigma_px"].median()
-        assert 0.5 < sigma / per_axis < 2.0, (m, sigma, per_axis)
+        assert 0.67 < sigma / per_axis < 1.5, (m, sigma, per_axis)
 
 
 def test_h264_with_noise(render):
@@ -152,13 +153,21 @@ def test_partly_covered_marker_is_a_gap_not_a_biased_centre(render):
 @pytest.mark.parametrize("name,settings", [
     ("blur", {"exposure_s": 1 / 60}),  # half the frame interval open
     ("gradient", {"light_gradient": 0.5}),  # ±25 % light across the frame, sweeping
+    # Lossless RGB, where luminance edges are read too:
+    ("blur_rgb", {"exposure_s": 1 / 60, "lossless": True}),
+    ("gradient_rgb", {"light_gradient": 0.5, "lossless": True}),
 ])
 def test_real_camera_conditions(render, name, settings):
     result, truth, _ = render(name, noise_dn=2.5, **settings)
     for m in "ABC":
         assert result.found_fraction[m] == 1.0, m
         e = _errors(result.tracks, truth, m)
-        assert np.sqrt(np.mean(e**2)) < 0.15, m
+        assert np.sqrt(np.mean(e**2)) < (0.03 if settings.get("lossless") else 0.15), m
+        if name == "blur_rgb" and m == "B":
+            # A smeared disc is not a blurred disc: the moving marker keeps a bias of
+            # ~0.015 px that no fit's σ (0.004–0.006 px here) includes, with or without
+            # luminance; on H.264 the σ is large enough to hold it (bench/README).
+            continue
         # σ stays honest: no error beyond 5σ (per-axis σ, 2-D error).
         s = result.tracks.loc[e.index, f"{m}_sigma_px"]
         assert np.max(e / (np.sqrt(2) * s)) < 5.0, m

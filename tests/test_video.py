@@ -43,6 +43,21 @@ def test_image_folder_in_natural_order(tmp_path):
         open_frames(tmp_path)
 
 
+def test_frames_say_whether_their_chroma_is_full_resolution(tmp_path):
+    # What decides whether the tracker may read luminance edges (refine.fit_edges).
+    img = np.full((48, 64, 3), 128, np.uint8)
+    for lossless, full in ((True, True), (False, False)):  # RGB H.264 vs 4:2:0 H.264
+        name = tmp_path / f"v{lossless}.mp4"
+        with VideoWriter(name, 64, 48, 30.0, lossless=lossless) as w:
+            w.write(img, 0.0)
+        assert [f.full_chroma for f in open_frames(name).frames()] == [full]
+    for suffix, full in ((".png", True), (".jpg", False)):
+        folder = tmp_path / suffix[1:]
+        folder.mkdir()
+        cv2.imwrite(str(folder / f"1{suffix}"), img)
+        assert [f.full_chroma for f in open_frames(folder, fps=1.0).frames()] == [full]
+
+
 def test_empty_folder_and_missing_path(tmp_path):
     with pytest.raises(CranktrackError, match="no images"):
         open_frames(tmp_path)
@@ -71,5 +86,6 @@ def test_h264_frames_keep_the_decoders_planes_and_convert_like_ffmpeg(tmp_path):
         assert d.max() <= 3 and d.mean() < 2.5
         whole = mine.rgb
         for x0, y0, x1, y1 in ((7, 5, 40, 33), (0, 1, 3, 96), (101, 60, 128, 95)):
-            fresh = Frame(mine.index, mine.t_s, mine.pixels, mine.layout)  # nothing cached
+            # A fresh frame, so nothing is cached.
+            fresh = Frame(mine.index, mine.t_s, mine.pixels, mine.layout, mine.full_chroma)
             np.testing.assert_array_equal(fresh.region(x0, y0, x1, y1), whole[y0:y1, x0:x1])

@@ -28,7 +28,7 @@ from cranktrack.tracker.markers import (
     learn_spec,
     white_balance_gains,
 )
-from cranktrack.tracker.refine import Centre, fit_disc, local_coverage, weighted_centroid
+from cranktrack.tracker.refine import Centre, fit_disc, fit_edges, local_coverage, weighted_centroid
 from cranktrack.tracker.video import Frame, FrameSource, timing_report
 
 #: Why a marker has no position in a frame (the ``_status`` column).
@@ -129,8 +129,8 @@ def _patch(image: Frame | NDArray, cx: float, cy: float, half: float
 
 
 def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius: float,
-           marker: NDArray | None = None, init: tuple[float, ...] | None = None
-           ) -> tuple[Centre, NDArray | None]:
+           marker: NDArray | None = None, init: tuple[float, ...] | None = None,
+           edges: bool | None = None) -> tuple[Centre, NDArray | None]:
     """Sub-pixel centre of a marker near ``guess`` (see :mod:`.refine`).
 
     Chroma unmixing against a ring background, then a blurred-disc fit. A
@@ -138,7 +138,10 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     weighted centroid and the ring re-centred there; a prediction from the
     previous frames (with ``init``, that frame's fitted shape) goes straight
     to the fit. ``marker`` is the learned marker chroma (None at
-    acquisition). Returns the centre and the chroma seen in its middle.
+    acquisition). ``edges`` adds the luminance of the edge's clean sectors
+    (:func:`.refine.fit_edges`); by default it does so for frames with
+    full-resolution chroma (:attr:`Frame.full_chroma`), not for arrays.
+    Returns the centre and the chroma seen in its middle.
     """
     patch, x0, y0 = _patch(image, guess[0], guess[1], radius + 9)
     alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker)
@@ -159,6 +162,12 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
         patch, x0, y0 = _patch(image, guess[0], guess[1], radius + 9)
         alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker)
         fit = fit_disc(alpha, x0, y0, guess, radius, init=fit.params)
+    if edges is None:
+        # On 4:2:0 H.264 a moving marker's luminance edge is off by 2–3× what the
+        # fit's residual says (bench/luminance.py): only full-chroma frames use it.
+        edges = isinstance(image, Frame) and image.full_chroma
+    if fit.ok and edges:
+        fit = fit_edges(patch, alpha, x0, y0, fit, radius) or fit
     if fit.ok or c is None:
         return fit, seen
     return Centre(c.x, c.y, c.sigma, c.radius, True), seen

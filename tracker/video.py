@@ -46,12 +46,18 @@ class Frame:
     conversion a whole RGB frame costs; :attr:`rgb` converts the whole frame
     when it is needed (a full-frame search). Both use the same conversion
     (:func:`_i420_to_rgb`), so a region is exactly that part of :attr:`rgb`.
+
+    ``full_chroma`` says whether every pixel was stored with its own colour
+    (RGB, 4:4:4, PNG/TIFF/BMP images) rather than sharing it with its
+    neighbours (4:2:0 or 4:2:2 video, JPEG images): the tracker reads the
+    marker's edge in luminance too only then.
     """
 
     index: int
     t_s: float
     pixels: NDArray[np.uint8]
     layout: str = "rgb"
+    full_chroma: bool = True
 
     @property
     def size(self) -> tuple[int, int]:
@@ -107,12 +113,15 @@ def _i420_to_rgb(Y: NDArray, U: NDArray, V: NDArray, x0: int, y0: int, x1: int, 
     return out
 
 
-def _frame_pixels(frame: av.VideoFrame) -> tuple[NDArray[np.uint8], str]:
-    """The decoder's planes when they can be converted region by region, else RGB."""
+def _frame_pixels(frame: av.VideoFrame) -> tuple[NDArray[np.uint8], str, bool]:
+    """The decoder's planes when they can be converted region by region, else RGB; and
+    whether the chroma is stored at full resolution (:attr:`Frame.full_chroma`)."""
+    full = all(c.width == frame.width and c.height == frame.height
+               for c in frame.format.components)
     if (frame.format.name == "yuv420p" and frame.width % 4 == 0 and frame.height % 4 == 0
             and frame.colorspace in _BT601 and frame.color_range in (0, 1)):
-        return frame.to_ndarray(), "i420"
-    return frame.to_ndarray(format="rgb24"), "rgb"
+        return frame.to_ndarray(), "i420", full
+    return frame.to_ndarray(format="rgb24"), "rgb", full
 
 
 @dataclass
@@ -197,7 +206,9 @@ class FrameSource:
             if bgr is None:
                 self.problems.append(f"{p.name} could not be read as an image and was skipped")
                 continue
-            yield Frame(index, index / fps, cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+            # JPEG stores colour at half resolution (almost always): no luminance edges.
+            yield Frame(index, index / fps, cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB),
+                        full_chroma=p.suffix.lower() not in (".jpg", ".jpeg"))
 
 
 def _prefetched(frames: Iterator[Frame], depth: int) -> Iterator[Frame]:
