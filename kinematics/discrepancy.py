@@ -1083,7 +1083,9 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
     ----------
     measured : DataFrame
         A kinematics table: ``t_s``, ``theta_deg`` (per frame, not smoothed),
-        ``theta_deg_sigma``, ``L3_mm``; ``L1_mm``/``L2_mm`` seed the lengths.
+        ``theta_deg_sigma`` (or ``theta_deg_sigma_tracker``, preferred: the
+        noise level without the rigid links' widening), ``L3_mm``;
+        ``L1_mm``/``L2_mm`` seed the lengths.
     known : dict
         Values the user knows from the rig, held fixed (the model's base names:
         :data:`SPOOL_BASE`, :data:`DYNAMIC_BASE`).
@@ -1130,8 +1132,11 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
     span = float(t[-1] - t[0])
     base_free = [replace(p, lower=t[0] - span, upper=t[-1]) if k == "start_s" else p
                  for k, p in spec.base.items() if k not in held]
-    sig = measured["theta_deg_sigma"].to_numpy(float)[ok] if "theta_deg_sigma" in measured \
-        else np.full(t.size, np.nan)
+    # The tracker's own σ, without the rigid links' widening where the table has it:
+    # a camera effect bends the links, and the loop must not count it as noise.
+    noise_col = next((c for c in ("theta_deg_sigma_tracker", "theta_deg_sigma")
+                      if c in measured), None)
+    sig = measured[noise_col].to_numpy(float)[ok] if noise_col else np.full(t.size, np.nan)
     tracker_deg = float(np.nanmedian(sig)) if np.isfinite(sig).any() else 0.0
     nyquist = 0.5 / float(np.median(np.diff(t)))
 

@@ -9,8 +9,11 @@ leave-one-out cross-validation on θ.
 
 Every column carries a 1-σ propagated from the per-point ``_sigma_mm``, to
 first order, and, for lengths and speeds, from the calibration's scale.
-Positions (θ, L3) keep that σ: much of a tracker's error on compressed video
-is the same in every frame (a bias) and belongs there.
+Positions (θ, L3) keep that σ — much of a tracker's error on compressed video
+is the same in every frame (a bias) and belongs there — widened where the
+rigid links |AB| and |AC| wander more than it allows (:func:`link_excess`):
+a moving marker's error on compressed video changes slowly and no single
+frame's fit sees it, but the links do.
 Rates (ω, α, v_B, L3') see only the part that changes from frame to frame,
 so their propagated σ is *calibrated*: the leave-one-out residuals of θ show
 how large that part really is, and the rate σ are scaled by the ratio,
@@ -113,6 +116,51 @@ def _noise_scale(loo: np.ndarray, sigma: np.ndarray, fit_sigma: np.ndarray,
     return np.sqrt(local)
 
 
+#: Ratio of a link's mean square deviation to its σ² above which it shows an
+#: excess: two standard errors (√(2/31)) of a mean over :data:`SCALE_WINDOW`.
+LINK_SIGNIFICANCE = 1.5
+
+
+def link_excess(tracks: pd.DataFrame) -> dict[str, np.ndarray]:
+    """Per-marker error variance (mm², per axis) that the rigid links show
+    beyond the tracker's ``_sigma_mm``.
+
+    |AB| and |AC| are constant in the mechanism, so their deviation from the
+    run's median is tracking error (the radial part of B − A and C − A).
+    Where that deviation is larger than the points' σ say — on compressed
+    video, a marker that moves crosses the codec's blocks and carries an
+    error that changes slowly over a second, which no single frame's fit can
+    see — the excess is the mean square deviation over :data:`SCALE_WINDOW`
+    frames around each one less the mean σ², counted only where the ratio
+    passes 1.5 (two standard errors of such a mean for errors as reported)
+    so that honest σ are not widened by chance. Frames more than 5σ off
+    (glitches, which ``rigid_ok`` flags) are left out. The excess shared by
+    both links is given to A, the rest of each link's to its other end.
+    Errors are taken as isotropic, so the radial excess stands for the
+    tangential one θ feels. A bias that stays the same all run (a still
+    marker's) is in the median and not seen, and a real change of a link's
+    length (a pivot that moves, a camera not square to the plane) is counted
+    as error: the excess only ever widens σ.
+    """
+    A, B, C = _xy(tracks, "A"), _xy(tracks, "B"), _xy(tracks, "C")
+    s = {m: tracks[f"{m}_sigma_mm"].to_numpy(float) for m in "ABC"}
+    roll = {"window": SCALE_WINDOW, "center": True, "min_periods": SCALE_WINDOW // 2}
+    excess = {}
+    for name, p, q, sp, sq in (("AB", A, B, s["A"], s["B"]), ("AC", A, C, s["A"], s["C"])):
+        length = np.hypot(*(q - p).T)
+        var = sp**2 + sq**2
+        dev2 = (length - np.nanmedian(length)) ** 2
+        dev2[dev2 > 25.0 * var] = np.nan
+        level = pd.Series(dev2).rolling(**roll).mean().to_numpy()
+        expected = pd.Series(np.where(np.isfinite(dev2), var, np.nan)).rolling(**roll).mean()
+        expected = expected.to_numpy()
+        with np.errstate(invalid="ignore"):
+            seen = level > LINK_SIGNIFICANCE * expected
+        excess[name] = np.where(seen, level - expected, 0.0)
+    shared = np.minimum(excess["AB"], excess["AC"])
+    return {"A": shared, "B": excess["AB"] - shared, "C": excess["AC"] - shared}
+
+
 @dataclass(frozen=True)
 class MeasureInfo:
     """How the kinematics were measured: the window (samples and s), the
@@ -158,7 +206,8 @@ def measure_kinematics(
     -------
     (DataFrame, MeasureInfo)
         The kinematics table of DESIGN.md (plus ``L1_mm``, ``L2_mm``,
-        ``rigid_ok``), one row per frame, and how it was made.
+        ``rigid_ok`` and ``theta_deg_sigma_tracker``, θ's σ from the
+        tracker's σ alone), one row per frame, and how it was made.
     """
     for m in "ABC":
         if f"{m}_x_mm" not in tracks:
@@ -191,8 +240,7 @@ def measure_kinematics(
     sA, sB, sC = (tracks[f"{m}_sigma_mm"].to_numpy(float) for m in "ABC")
     dBx, dBy = diff(B[:, 0], sB), diff(B[:, 1], sB)
     L3 = np.hypot(*(B - C).T)
-    L3_sigma = np.hypot(sB, sC)
-    dL3 = diff(L3, L3_sigma)
+    dL3 = diff(L3, np.hypot(sB, sC))
     vx, vy = dBx.d1, dBy.d1
     speed = np.hypot(vx, vy)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -201,8 +249,14 @@ def measure_kinematics(
         across = np.sqrt((vy * dBx.d1_sigma) ** 2 + (vx * dBy.d1_sigma) ** 2) / speed
     still = ~(speed > 0)
     along[still] = np.hypot(dBx.d1_sigma, dBy.d1_sigma)[still]
+    # Positions report the error the rigid links show too; the rates keep the
+    # per-point σ, which their own calibration (``scale``) already corrects.
+    wide = tracks.copy()
+    for m, ex in link_excess(tracks).items():
+        wide[f"{m}_sigma_mm"] = np.sqrt(wide[f"{m}_sigma_mm"].to_numpy(float) ** 2 + ex)
+    L3_sigma = np.hypot(wide["B_sigma_mm"].to_numpy(float), wide["C_sigma_mm"].to_numpy(float))
     sigma = {
-        "theta_deg": np.degrees(theta_sigma),
+        "theta_deg": np.degrees(crank_angle(wide)[1]),
         "omega_rad_s": d_theta.d1_sigma,
         "alpha_rad_s2": d_theta.d2_sigma,
         "vB_x_mm_s": dBx.d1_sigma,
@@ -234,6 +288,10 @@ def measure_kinematics(
                        "range": float(np.nanmax(length) - np.nanmin(length)),
                        "frames_flagged": int(np.sum(jump & np.isfinite(length)))}
     table["rigid_ok"] = rigid_ok
+    # The noise level a model's residual is judged against (``cranktrack fit``): the
+    # links' excess is left out, because a camera effect the loop looks for (a tilt)
+    # bends the links too and would otherwise hide in the noise.
+    table["theta_deg_sigma_tracker"] = np.degrees(theta_sigma)
     step = float(np.median(np.diff(t))) if t.size > 1 else float("nan")
     return table, MeasureInfo(w, w * step, float(np.median(scale)), scores, links,
                               (float(np.min(scale)), float(np.max(scale))))
