@@ -1,5 +1,8 @@
 """Reading frames: container timestamps, image folders, timing reports."""
 
+import fractions
+
+import av
 import cv2
 import numpy as np
 import pytest
@@ -21,6 +24,15 @@ def test_variable_frame_rate_timestamps_are_read_not_assumed(tmp_path):
     rep = timing_report(np.array(got), src.nominal_fps)
     assert rep["variable_rate"]
     assert rep["gaps"] == 1 and rep["dropped_frames_estimate"] == 2
+
+
+def test_a_constant_rate_stored_in_whole_milliseconds_is_not_variable():
+    t = np.round(np.arange(200) / 30.0, 3)  # 33, 33, 34 ms … as MKV or some MP4s store it
+    rep = timing_report(t, 30.0)
+    assert not rep["variable_rate"] and rep["timestamp_resolution_s"] == pytest.approx(1e-3)
+    # A real change of rate at the same resolution still is.
+    t2 = np.round(np.concatenate([np.arange(100) / 30.0, 100 / 30.0 + np.arange(100) / 24.0]), 3)
+    assert timing_report(t2, 30.0)["variable_rate"]
 
 
 def test_constant_rate_report():
@@ -89,3 +101,58 @@ def test_h264_frames_keep_the_decoders_planes_and_convert_like_ffmpeg(tmp_path):
             # A fresh frame, so nothing is cached.
             fresh = Frame(mine.index, mine.t_s, mine.pixels, mine.layout, mine.full_chroma)
             np.testing.assert_array_equal(fresh.region(x0, y0, x1, y1), whole[y0:y1, x0:x1])
+
+
+def _grey(k: int) -> av.VideoFrame:
+    return av.VideoFrame.from_ndarray(np.full((48, 64, 3), 10 + 3 * k, np.uint8), format="rgb24")
+
+
+@pytest.mark.parametrize("pts_in_decoding_order", [False, True])
+def test_b_frames_stored_with_decoding_order_times_get_display_order_times(
+        tmp_path, pts_in_decoding_order):
+    # Some webcam and phone muxers store B-frames with pts = dts (seen in OpenCV's own
+    # sample box.mp4): the decoder still hands pictures over in display order, but each
+    # with another's time. Written here with PyAV: frame k is grey level 10 + 3k.
+    path = tmp_path / "b.mp4"
+    with av.open(str(path), "w") as out:
+        stream = out.add_stream("libx264", rate=30, options={"bframes": "2", "g": "30"})
+        stream.width, stream.height, stream.pix_fmt = 64, 48, "yuv420p"
+        frames = [_grey(k) for k in range(40)]
+        for k, f in enumerate(frames):
+            f.pts = k
+        for f in [*frames, None]:
+            for packet in stream.encode(f):
+                if pts_in_decoding_order:
+                    packet.pts = packet.dts
+                out.mux(packet)
+    src = open_frames(path)
+    got = list(src.frames())
+    t = np.array([f.t_s for f in got])
+    grey = np.array([f.rgb.mean() for f in got])
+    assert len(got) >= 36
+    np.testing.assert_allclose(np.diff(t), 1 / 30, atol=2e-3)  # in order, no gaps
+    assert np.all(np.diff(grey) > 1)  # and the pictures in the order they were filmed
+    assert any("decoding order" in p for p in src.problems) == pts_in_decoding_order
+
+
+def test_an_avi_that_lists_repeated_frames_is_not_called_truncated(tmp_path):
+    # AVI can list a frame slot without a picture (it repeats the one before): OpenCV's
+    # sample tree.avi lists 444 frames over 29.6 s and holds 68 pictures.
+    shown = [0, 1, 2, 5, 6, 7, 12, 20, 21, 29]
+    path = tmp_path / "sparse.avi"
+    with av.open(str(path), "w") as out:
+        stream = out.add_stream("mjpeg", rate=15)
+        stream.width, stream.height, stream.pix_fmt = 64, 48, "yuvj420p"
+        for k in shown:
+            f = _grey(k)
+            f.pts, f.time_base = k, fractions.Fraction(1, 15)
+            for packet in stream.encode(f):
+                out.mux(packet)
+        for packet in stream.encode():
+            out.mux(packet)
+    src = open_frames(path)
+    t = [f.t_s for f in src.frames()]
+    np.testing.assert_allclose(t, np.array(shown) / 15, atol=1e-3)
+    assert src.expected_frames == 30
+    assert not any("truncated" in p for p in src.problems)
+    assert any("holds 10 pictures" in p for p in src.problems), src.problems

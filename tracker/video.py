@@ -10,10 +10,12 @@ frames) is summarised by :func:`timing_report`.
 
 from __future__ import annotations
 
+import heapq
 import os
 import queue
 import re
 import threading
+from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -29,6 +31,10 @@ from cranktrack.errors import CranktrackError
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 
+#: Pictures held back to put timestamps stored in decoding order back in display
+#: order (3 were needed by a webcam H.264 file; H.264 allows up to 16 in theory).
+REORDER_DEPTH = 8
+
 
 #: FFmpeg colour-space codes whose YUV → RGB matrix is BT.601 (or unspecified,
 #: which FFmpeg also converts as BT.601): unspecified, BT.470BG, SMPTE 170M.
@@ -37,7 +43,7 @@ _BT601 = (2, 5, 6)
 
 @dataclass(frozen=True)
 class Frame:
-    """One decoded frame: its index in decode order, time (s) and pixels.
+    """One decoded frame: its index in display order, time (s) and pixels.
 
     ``pixels`` is RGB (h, w, 3), or, for 4:2:0 video in BT.601 limited range
     (``layout == "i420"``), the decoder's own planes (Y, then U and V at half
@@ -140,10 +146,11 @@ class FrameSource:
     expected_frames: int | None
     codec: str
     problems: list[str] = field(default_factory=list)
+    duration_s: float | None = None  # the container's, to tell a truncated file
     _images: list[Path] = field(default_factory=list, repr=False)
 
     def frames(self, prefetch: int = 0) -> Iterator[Frame]:
-        """Yield frames in decode order.
+        """Yield frames in display order (see ``REORDER_DEPTH``).
 
         With ``prefetch > 0`` a background thread decodes up to that many
         frames ahead, so decoding overlaps whatever the caller does with each
@@ -160,6 +167,26 @@ class FrameSource:
         skipped: list[int] = []  # frame index after which a corrupt packet was dropped
         index = 0
         missing_pts = False
+        reordered = 0
+        # The decoder hands pictures over in display order, but a container that
+        # stores B-frames without composition offsets (pts = dts, as some webcam and
+        # phone muxers write) leaves each picture with another one's timestamp. The
+        # times are right as a set, so each picture takes the earliest time among
+        # it and the next REORDER_DEPTH pictures; in a well-made file that is its own.
+        pending: deque[tuple] = deque()
+        times: list[float] = []
+        first_t, last_t = float("nan"), float("nan")
+
+        def emit() -> Frame:
+            nonlocal index, reordered, first_t, last_t
+            own, pixels = pending.popleft()
+            t = heapq.heappop(times)
+            reordered += t != own
+            first_t = t if index == 0 else first_t
+            last_t = t
+            index += 1
+            return Frame(index - 1, t, *pixels)
+
         with av.open(str(self.path)) as container:
             stream = container.streams.video[0]
             stream.thread_type = "AUTO"  # frame-threaded decoding; order is kept
@@ -170,21 +197,26 @@ class FrameSource:
                 except StopIteration:
                     break
                 except av.FFmpegError as e:
-                    self.problems.append(f"reading stopped after frame {index - 1}: the file "
-                                         f"is damaged from there on ({e.strerror})")
+                    self.problems.append(f"reading stopped after frame {index + len(pending) - 1}"
+                                         f": the file is damaged from there on ({e.strerror})")
                     break
                 try:
                     decoded = packet.decode()
                 except av.FFmpegError:
-                    skipped.append(index - 1)
+                    skipped.append(index + len(pending) - 1)
                     continue
                 for frame in decoded:
                     t = frame.time
                     if t is None:
                         missing_pts = True
-                        t = index / self.nominal_fps if self.nominal_fps else float(index)
-                    yield Frame(index, float(t), *_frame_pixels(frame))
-                    index += 1
+                        n = index + len(pending)
+                        t = n / self.nominal_fps if self.nominal_fps else float(n)
+                    pending.append((float(t), _frame_pixels(frame)))
+                    heapq.heappush(times, float(t))
+                    if len(pending) > REORDER_DEPTH:
+                        yield emit()
+            while pending:
+                yield emit()
         if skipped:
             where = ", ".join(str(k) for k in sorted(set(skipped))[:10])
             self.problems.append(f"{len(skipped)} corrupt packet(s) were skipped (after frame(s) "
@@ -193,11 +225,25 @@ class FrameSource:
         if missing_pts:
             self.problems.append("the container has no timestamps for some frames; those use "
                                  "index / nominal fps")
-        if self.expected_frames and index < self.expected_frames and not skipped:
+        if reordered:
             self.problems.append(
-                f"the video ends after frame {index - 1} although its index lists "
-                f"{self.expected_frames} frames: it is truncated or damaged; the tracks up to "
-                "there are kept")
+                f"the container's timestamps are in decoding order, not display order "
+                f"({reordered} of {index} frames carried another frame's time): each frame "
+                "was given the times in display order")
+        if self.expected_frames and index < self.expected_frames and not skipped:
+            # The container's duration runs to the end of the last picture's interval.
+            step = 1.0 / self.nominal_fps if self.nominal_fps else 0.0
+            if self.duration_s and last_t - first_t >= self.duration_s - 3.0 * step - 1e-6:
+                self.problems.append(
+                    f"the container lists {self.expected_frames} frames but holds {index} "
+                    f"pictures, spread over its whole {self.duration_s:.3g} s (not cut short):"
+                    " a listed frame without a picture of its own repeats the one before, and "
+                    "each picture keeps its own time, so any gap shows in the timing")
+            else:
+                self.problems.append(
+                    f"the video ends after frame {index - 1} although its index lists "
+                    f"{self.expected_frames} frames: it is truncated or damaged; the tracks "
+                    "up to there are kept")
 
     def _image_frames(self) -> Iterator[Frame]:
         fps = self.nominal_fps or 1.0
@@ -295,8 +341,12 @@ def open_frames(path: str | os.PathLike, fps: float | None = None) -> FrameSourc
                 raise CranktrackError(f"{p} has no video stream")
             s = container.streams.video[0]
             rate = float(s.average_rate) if s.average_rate else None
+            if s.duration and s.time_base:
+                duration = float(s.duration * s.time_base)
+            else:
+                duration = container.duration / av.time_base if container.duration else None
             return FrameSource(p, "video", s.codec_context.width, s.codec_context.height, rate,
-                               s.frames or None, s.codec_context.name)
+                               s.frames or None, s.codec_context.name, duration_s=duration)
     except av.FFmpegError as e:
         raise CranktrackError(
             f"{p} is not a video FFmpeg can read ({e.strerror}); if it is a recording that "
@@ -307,9 +357,12 @@ def timing_report(t_s: NDArray[np.float64], nominal_fps: float | None = None) ->
     """What the frame times say about the recording.
 
     Returns a JSON-ready dict: median frame interval and rate, whether the
-    rate is variable (intervals spread by more than 1 %), the number of
-    duplicated timestamps, of non-increasing steps, and of gaps longer than
-    1.5 median intervals with the frames they are estimated to have dropped.
+    rate is variable (intervals spread by more than 1 % and by more than two
+    steps of the timestamps' own resolution, so that a constant rate stored
+    in whole milliseconds — 33, 33, 34 ms — is not called variable), the
+    number of duplicated timestamps, of non-increasing steps, and of gaps
+    longer than 1.5 median intervals with the frames they are estimated to
+    have dropped.
     """
     t = np.asarray(t_s, dtype=float)
     out: dict = {"frames": int(t.size), "nominal_fps": nominal_fps}
@@ -319,11 +372,17 @@ def timing_report(t_s: NDArray[np.float64], nominal_fps: float | None = None) ->
     positive = dt[dt > 0]
     med = float(np.median(positive)) if positive.size else float("nan")
     gaps = dt > 1.5 * med
+    # The resolution: the smallest step between the distinct lengths of the
+    # intervals near the median (a gap's length says nothing about it).
+    distinct = np.unique(np.round(positive[np.abs(positive - med) < 0.25 * med], 9))
+    resolution = float(np.min(np.diff(distinct))) if distinct.size > 1 else 0.0
+    spread = float(positive.max() - positive.min()) if positive.size else 0.0
     out.update(
         duration_s=float(t[-1] - t[0]),
         median_interval_s=med,
         median_fps=1.0 / med if med > 0 else None,
-        variable_rate=bool(positive.size and (positive.max() - positive.min()) > 0.01 * med),
+        variable_rate=bool(spread > max(0.01 * med, 2.0 * resolution + 1e-9)),
+        timestamp_resolution_s=resolution,
         duplicated_timestamps=int(np.sum(dt == 0)),
         backward_steps=int(np.sum(dt < 0)),
         gaps=int(gaps.sum()),

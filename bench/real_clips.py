@@ -1,0 +1,99 @@
+"""The reader and tracker on real camera footage: OpenCV's sample clips.
+
+There is no real footage of the mechanism. The nearest real footage a
+package registry here offers is OpenCV's own sample clips, in Debian's
+``opencv-doc`` package (Apache-2.0 / BSD-3-Clause): a webcam H.264 file
+(``box.mp4``), a phone H.264 file (``cup.mp4``), a Cinepak AVI
+(``tree.avi``) and an MS-MPEG4 AVI from a fixed camera (``vtest.avi``).
+None has coloured disc markers, so this does not measure accuracy: it shows
+what the reader makes of each container's timestamps (rate, variable rate,
+gaps, problems) and what the tracker does when the markers are not there
+(how much of each default colour it mistakes for a marker, and that it says
+so). The package is fetched once with ``apt-get download`` (no root needed)
+into ``bench/.cache``.
+
+    .venv/bin/python bench/real_clips.py
+"""
+
+from __future__ import annotations
+
+import gzip
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import CACHE
+
+from cranktrack.pipeline import track_run
+from cranktrack.tracker.video import open_frames, timing_report
+
+DOC = Path("usr/share/doc/opencv-doc")
+CLIPS = {
+    "box.mp4": DOC / "opencv4/html/box.mp4.gz",
+    "cup.mp4": DOC / "opencv4/html/cup.mp4.gz",
+    "tree.avi": DOC / "examples/data/tree.avi",
+    "vtest.avi": DOC / "examples/data/vtest.avi",
+}
+
+
+def fetch() -> dict[str, Path]:
+    """The clips, from Debian's opencv-doc package, cached in bench/.cache/opencv-doc."""
+    folder = CACHE / "opencv-doc"
+    out = {name: folder / name for name in CLIPS}
+    if all(p.exists() for p in out.values()):
+        return out
+    folder.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        try:
+            subprocess.run(["apt-get", "download", "opencv-doc"], cwd=tmp, check=True,
+                           capture_output=True)
+            deb = next(Path(tmp).glob("opencv-doc_*.deb"))
+            subprocess.run(["dpkg-deb", "-x", str(deb), tmp], check=True, capture_output=True)
+        except (OSError, subprocess.CalledProcessError, StopIteration) as e:
+            sys.exit(f"could not fetch Debian's opencv-doc package ({e}); this benchmark needs "
+                     "apt-get and dpkg-deb and a Debian package mirror")
+        for name, member in CLIPS.items():
+            src = Path(tmp) / member
+            if src.suffix == ".gz":
+                out[name].write_bytes(gzip.decompress(src.read_bytes()))
+            else:
+                out[name].write_bytes(src.read_bytes())
+    return out
+
+
+def main() -> None:
+    for name, path in fetch().items():
+        src = open_frames(path)
+        t0 = time.perf_counter()
+        times = np.array([f.t_s for f in src.frames()])
+        decode_s = time.perf_counter() - t0
+        rep = timing_report(times, src.nominal_fps)
+        print(f"\n{name}: {src.codec} {src.width}×{src.height}, listed {src.expected_frames} "
+              f"frames at {src.nominal_fps or float('nan'):.3f} fps, "
+              f"{src.duration_s or float('nan'):.2f} s")
+        print(f"  decoded {rep['frames']} frames in {decode_s:.2f} s; median rate "
+              f"{rep.get('median_fps') or float('nan'):.3f} fps, variable rate "
+              f"{rep.get('variable_rate')}, gaps {rep.get('gaps')} (≈ "
+              f"{rep.get('dropped_frames_estimate')} frames), backward steps "
+              f"{rep.get('backward_steps')}")
+        for p in src.problems:
+            print(f"  reader: {p}")
+        with tempfile.TemporaryDirectory() as tmp:
+            t0 = time.perf_counter()
+            run = track_run(path, tmp)
+            track_s = time.perf_counter() - t0
+        found = {m: 100 * float(run.tracks[f"{m}_ok"].mean()) for m in "ABC"}
+        print(f"  tracked in {track_s:.2f} s; taken for a marker in: "
+              + ", ".join(f"{m} {v:.1f} %" for m, v in found.items()))
+        for w in run.warnings:
+            if "found in only" in w or "not found in any" in w or "blobs" in w:
+                print(f"  tracker: {w}")
+
+
+if __name__ == "__main__":
+    main()
