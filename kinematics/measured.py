@@ -116,6 +116,32 @@ def _noise_scale(loo: np.ndarray, sigma: np.ndarray, fit_sigma: np.ndarray,
     return np.sqrt(local)
 
 
+#: A link length this many of its σ from its run median is a glitch (``rigid_ok``).
+LINK_JUMP_SIGMA = 5.0
+
+
+@dataclass(frozen=True)
+class _Link:
+    length: np.ndarray  # mm, per frame
+    deviation: np.ndarray  # from the run's median, mm
+    sigma: np.ndarray  # from the two points' σ, mm
+    jump: np.ndarray  # beyond LINK_JUMP_SIGMA σ: a glitch
+
+
+def _rigid_links(tracks: pd.DataFrame) -> dict[str, _Link]:
+    """|AC| (``L1_mm``) and |AB| (``L2_mm``) per frame, with what the checks need."""
+    A = _xy(tracks, "A")
+    sA = tracks["A_sigma_mm"].to_numpy(float)
+    out = {}
+    for name, m in (("L1_mm", "C"), ("L2_mm", "B")):
+        length = np.hypot(*(_xy(tracks, m) - A).T)
+        sigma = np.hypot(sA, tracks[f"{m}_sigma_mm"].to_numpy(float))
+        dev = length - np.nanmedian(length)
+        out[name] = _Link(length, dev, sigma,
+                          np.abs(dev) > LINK_JUMP_SIGMA * np.maximum(sigma, 1e-9))
+    return out
+
+
 #: Ratio of a link's mean square deviation to its σ² above which it shows an
 #: excess: two standard errors (√(2/31)) of a mean over :data:`SCALE_WINDOW`.
 LINK_SIGNIFICANCE = 1.5
@@ -133,8 +159,9 @@ def link_excess(tracks: pd.DataFrame) -> dict[str, np.ndarray]:
     see — the excess is the mean square deviation over :data:`SCALE_WINDOW`
     frames around each one less the mean σ², counted only where the ratio
     passes 1.5 (two standard errors of such a mean for errors as reported)
-    so that honest σ are not widened by chance. Frames more than 5σ off
-    (glitches, which ``rigid_ok`` flags) are left out. The excess shared by
+    so that honest σ are not widened by chance. Frames more than
+    :data:`LINK_JUMP_SIGMA` σ off (glitches, which ``rigid_ok`` flags) are
+    left out. The excess shared by
     both links is given to A, the rest of each link's to its other end.
     Errors are taken as isotropic, so the radial excess stands for the
     tangential one θ feels. A bias that stays the same all run (a still
@@ -142,23 +169,24 @@ def link_excess(tracks: pd.DataFrame) -> dict[str, np.ndarray]:
     length (a pivot that moves, a camera not square to the plane) is counted
     as error: the excess only ever widens σ.
     """
-    A, B, C = _xy(tracks, "A"), _xy(tracks, "B"), _xy(tracks, "C")
-    s = {m: tracks[f"{m}_sigma_mm"].to_numpy(float) for m in "ABC"}
+    return _excess(_rigid_links(tracks))
+
+
+def _excess(links: dict[str, _Link]) -> dict[str, np.ndarray]:
+    """:func:`link_excess` from the links already measured."""
     roll = {"window": SCALE_WINDOW, "center": True, "min_periods": SCALE_WINDOW // 2}
     excess = {}
-    for name, p, q, sp, sq in (("AB", A, B, s["A"], s["B"]), ("AC", A, C, s["A"], s["C"])):
-        length = np.hypot(*(q - p).T)
-        var = sp**2 + sq**2
-        dev2 = (length - np.nanmedian(length)) ** 2
-        dev2[dev2 > 25.0 * var] = np.nan
+    for name, link in links.items():
+        dev2 = np.where(link.jump, np.nan, link.deviation**2)
         level = pd.Series(dev2).rolling(**roll).mean().to_numpy()
-        expected = pd.Series(np.where(np.isfinite(dev2), var, np.nan)).rolling(**roll).mean()
-        expected = expected.to_numpy()
+        expected = pd.Series(np.where(np.isfinite(dev2), link.sigma**2, np.nan))
+        expected = expected.rolling(**roll).mean().to_numpy()
         with np.errstate(invalid="ignore"):
             seen = level > LINK_SIGNIFICANCE * expected
         excess[name] = np.where(seen, level - expected, 0.0)
-    shared = np.minimum(excess["AB"], excess["AC"])
-    return {"A": shared, "B": excess["AB"] - shared, "C": excess["AC"] - shared}
+    # L2 is |AB|, L1 is |AC|.
+    shared = np.minimum(excess["L2_mm"], excess["L1_mm"])
+    return {"A": shared, "B": excess["L2_mm"] - shared, "C": excess["L1_mm"] - shared}
 
 
 @dataclass(frozen=True)
@@ -236,8 +264,8 @@ def measure_kinematics(
         return replace(d, d1_sigma=s1, d2_sigma=s2)
 
     d_theta = diff(theta, theta_sigma, fit_theta)
-    A, B, C = _xy(tracks, "A"), _xy(tracks, "B"), _xy(tracks, "C")
-    sA, sB, sC = (tracks[f"{m}_sigma_mm"].to_numpy(float) for m in "ABC")
+    B, C = _xy(tracks, "B"), _xy(tracks, "C")
+    sB, sC = (tracks[f"{m}_sigma_mm"].to_numpy(float) for m in "BC")
     dBx, dBy = diff(B[:, 0], sB), diff(B[:, 1], sB)
     L3 = np.hypot(*(B - C).T)
     dL3 = diff(L3, np.hypot(sB, sC))
@@ -251,8 +279,9 @@ def measure_kinematics(
     along[still] = np.hypot(dBx.d1_sigma, dBy.d1_sigma)[still]
     # Positions report the error the rigid links show too; the rates keep the
     # per-point σ, which their own calibration (``scale``) already corrects.
+    rigid = _rigid_links(tracks)
     wide = tracks.copy()
-    for m, ex in link_excess(tracks).items():
+    for m, ex in _excess(rigid).items():
         wide[f"{m}_sigma_mm"] = np.sqrt(wide[f"{m}_sigma_mm"].to_numpy(float) ** 2 + ex)
     L3_sigma = np.hypot(wide["B_sigma_mm"].to_numpy(float), wide["C_sigma_mm"].to_numpy(float))
     sigma = {
@@ -277,16 +306,13 @@ def measure_kinematics(
     table.loc[still_B, ["vB_dir_deg", "vB_dir_deg_sigma"]] = np.nan
     links = {}
     rigid_ok = np.isfinite(theta)
-    for name, p, q, sp, sq in (("L1_mm", A, C, sA, sC), ("L2_mm", A, B, sA, sB)):
-        length = np.hypot(*(q - p).T)
-        table[name] = length
-        ls = np.hypot(sp, sq)
-        med = float(np.nanmedian(length))
-        jump = np.abs(length - med) > 5.0 * np.maximum(ls, 1e-9)
-        rigid_ok &= ~jump
-        links[name] = {"median": med, "std": float(np.nanstd(length)),
-                       "range": float(np.nanmax(length) - np.nanmin(length)),
-                       "frames_flagged": int(np.sum(jump & np.isfinite(length)))}
+    for name, link in rigid.items():
+        table[name] = link.length
+        rigid_ok &= ~link.jump
+        links[name] = {"median": float(np.nanmedian(link.length)),
+                       "std": float(np.nanstd(link.length)),
+                       "range": float(np.nanmax(link.length) - np.nanmin(link.length)),
+                       "frames_flagged": int(np.sum(link.jump & np.isfinite(link.length)))}
     table["rigid_ok"] = rigid_ok
     # The noise level a model's residual is judged against (``cranktrack fit``): the
     # links' excess is left out, because a camera effect the loop looks for (a tilt)
