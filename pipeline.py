@@ -29,7 +29,7 @@ from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic, wr
 from cranktrack.kinematics.compare import Comparison, compare_spool
 from cranktrack.kinematics.discrepancy import CameraView, LoopResult, close_loop
 from cranktrack.kinematics.frame_motion import frame_shake
-from cranktrack.kinematics.measured import measure_kinematics
+from cranktrack.kinematics.measured import LINK_WANDER, measure_kinematics
 from cranktrack.kinematics.plots import plot_comparison
 from cranktrack.report.fit import write_fit_report
 from cranktrack.report.summary import write_report
@@ -185,6 +185,13 @@ def track_run(
             for k, n in flagged.items():
                 warnings.append(f"{n} frame(s) where the rigid length {k[:2]} jumps by more "
                                 "than 5σ from its median (rigid_ok is false there)")
+            for k, link in info.links.items():
+                if link["std_over_sigma"] > LINK_WANDER:
+                    warnings.append(
+                        f"the rigid length {k[:2]} varies by {link['std']:.3f} mm (1σ) over the "
+                        f"run, {link['std_over_sigma']:.1f}× what the markers' σ allow; the "
+                        "camera may be tilted or the lens distorting (calibrate them: "
+                        "cranktrack calibrate)")
             files["kinematics"] = write_csv_atomic(folder / "kinematics.csv", kinematics)
         else:
             raise CranktrackError("kinematics need markers A, B and C; the run tracked only "

@@ -142,6 +142,11 @@ def _rigid_links(tracks: pd.DataFrame) -> dict[str, _Link]:
     return out
 
 
+#: A rigid link whose spread over the run is this many times what its points'
+#: σ allow is reported (``std_over_sigma`` in the links summary).
+LINK_WANDER = 2.0
+
+
 #: Ratio of a link's mean square deviation to its σ² above which it shows an
 #: excess: two standard errors (√(2/31)) of a mean over :data:`SCALE_WINDOW`.
 LINK_SIGNIFICANCE = 1.5
@@ -312,7 +317,13 @@ def measure_kinematics(
         links[name] = {"median": float(np.nanmedian(link.length)),
                        "std": float(np.nanstd(link.length)),
                        "range": float(np.nanmax(link.length) - np.nanmin(link.length)),
-                       "frames_flagged": int(np.sum(link.jump & np.isfinite(link.length)))}
+                       "frames_flagged": int(np.sum(link.jump & np.isfinite(link.length))),
+                       # The spread against what the points' σ allow: about 1 for
+                       # a rigid link tracked as the σ say (0.7–1.1 on the H.264
+                       # renders); a camera not square to the plane or a lens
+                       # that distorts bends it as the mechanism moves.
+                       "std_over_sigma": float(np.nanstd(link.length)
+                                               / np.sqrt(np.nanmean(link.sigma**2)))}
     table["rigid_ok"] = rigid_ok
     # The noise level a model's residual is judged against (``cranktrack fit``): the
     # links' excess is left out, because a camera effect the loop looks for (a tilt)
