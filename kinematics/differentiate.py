@@ -159,7 +159,11 @@ def local_polynomial(
             if all_rss:
                 R = np.array(all_rss)  # (shifts, n)
                 rates = np.array(all_rates)  # (shifts, order, n)
-                fine = bad & ((R <= limit) | (R - best_rss <= 9.0 * noise_var))
+                # Where even the best window misfits (a moving marker's codec error
+                # can exceed the run's typical noise, which still frames set), windows
+                # are told apart only to within the best one's own misfit.
+                local = np.maximum(noise_var, best_rss / dof)
+                fine = bad & ((R <= limit) | (R - best_rss <= 9.0 * local))
                 for k in range(min(order, 2)):
                     vals = np.where(fine, rates[:, k, :], np.nan)
                     with np.errstate(invalid="ignore"), warnings.catch_warnings():
