@@ -15,6 +15,7 @@ from cranktrack.synthetic.render import Style
 from cranktrack.synthetic.scenarios import SpoolScenario
 from cranktrack.synthetic.scene import RenderSettings, render_scene
 from cranktrack.tracker.markers import Blob, MarkerSpec, choose_blob
+from cranktrack.tracker.refine import fit_disc, fit_disc_cells
 from cranktrack.tracker.track import STATUSES, track
 from cranktrack.tracker.video import open_frames
 
@@ -140,6 +141,41 @@ def test_colour_names_and_hues():
 
     with pytest.raises(CranktrackError, match="unknown marker colour"):
         MarkerSpec.from_colour("W", "sparkly")
+
+
+@pytest.mark.parametrize("kappa", [0.0, 0.35])
+def test_chroma_cell_fit_sigma_matches_its_scatter(kappa):
+    # A 4:2:0 frame as the reader gives it: a disc's area coverage averaged over
+    # 2×2 cells and repeated over each cell, plus noise per cell, white or with
+    # neighbouring rows sharing part of it (ρ ≈ 0.3, as H.264's chroma shows).
+    # The σ is checked against the scatter of 200 draws.
+    rng = np.random.default_rng(7)
+    r, cx, cy, size, sub = 10.0, 20.3, 19.6, 40, 8
+    yy, xx = (np.mgrid[0:size * sub, 0:size * sub] + 0.5) / sub - 0.5
+    inside = (xx - cx) ** 2 + (yy - cy) ** 2 <= r * r
+    area = inside.reshape(size, sub, size, sub).mean(axis=(1, 3))
+    cells = area.reshape(size // 2, 2, size // 2, 2).mean(axis=(1, 3))
+    Y, X = np.mgrid[0:size, 0:size]
+    outside = np.hypot(X - cx, Y - cy) > r + 2  # as local_coverage leaves it
+    fits = {"pixels": [], "cells": []}
+    for _ in range(200):
+        noise = rng.normal(0.0, 0.05, cells.shape)
+        noise = noise + kappa * np.roll(noise, 1, axis=0)
+        alpha = np.repeat(np.repeat(cells + noise, 2, 0), 2, 1)
+        alpha[outside] = np.nan
+        pixel = fit_disc(alpha, 0, 0, (cx + 0.3, cy - 0.2), r)
+        cell = fit_disc_cells(alpha, 0, 0, pixel)
+        fits["pixels"].append((pixel.x, pixel.y, pixel.sigma))
+        fits["cells"].append((cell.x, cell.y, cell.sigma))
+    ratio = {}
+    for name, v in fits.items():
+        v = np.array(v)
+        scatter = np.sqrt(0.5 * (v[:, 0].var() + v[:, 1].var()))
+        ratio[name] = np.sqrt(np.mean(v[:, 2] ** 2)) / scatter
+    assert 0.7 < ratio["cells"] < 1.3, ratio
+    if kappa == 0.0:
+        # Fitted pixel by pixel, the staircase edge inflates white noise's σ.
+        assert ratio["pixels"] > 1.25, ratio
 
 
 def test_partly_covered_marker_is_a_gap_not_a_biased_centre(render):

@@ -28,7 +28,14 @@ from cranktrack.tracker.markers import (
     learn_spec,
     white_balance_gains,
 )
-from cranktrack.tracker.refine import Centre, fit_disc, fit_edges, local_coverage, weighted_centroid
+from cranktrack.tracker.refine import (
+    Centre,
+    fit_disc,
+    fit_disc_cells,
+    fit_edges,
+    local_coverage,
+    weighted_centroid,
+)
 from cranktrack.tracker.video import Frame, FrameSource, timing_report
 
 #: Why a marker has no position in a frame (the ``_status`` column).
@@ -140,7 +147,9 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     to the fit. ``marker`` is the learned marker chroma (None at
     acquisition). ``edges`` adds the luminance of the edge's clean sectors
     (:func:`.refine.fit_edges`); by default it does so for frames with
-    full-resolution chroma (:attr:`Frame.full_chroma`), not for arrays.
+    full-resolution chroma (:attr:`Frame.full_chroma`), not for arrays. On
+    the decoder's own 4:2:0 planes the centre and σ are refitted at the
+    chroma's resolution instead (:func:`.refine.fit_disc_cells`).
     Returns the centre and the chroma seen in its middle.
     """
     patch, x0, y0 = _patch(image, guess[0], guess[1], radius + 9)
@@ -152,7 +161,12 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
             return c, seen
         guess = (c.x, c.y)
         alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker)
-    fit = fit_disc(alpha, x0, y0, guess, radius, init=init)
+    # On the decoder's 4:2:0 planes the centre is refitted on the chroma cells
+    # below, so the pixel fit need only be close (its shape and residual are for
+    # the checks): 0.02 px instead of 0.001 saves an iteration or two.
+    cells = isinstance(image, Frame) and image.layout == "i420" and edges is not True
+    tol = 0.02 if cells else 1e-3
+    fit = fit_disc(alpha, x0, y0, guess, radius, init=init, tol_px=tol)
     for _ in range(3):
         # The background ring must be centred on the marker; a guess more than
         # half a pixel off (a prediction when the motion changes) is redone.
@@ -161,13 +175,16 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
         guess = (fit.x, fit.y)
         patch, x0, y0 = _patch(image, guess[0], guess[1], radius + 9)
         alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker)
-        fit = fit_disc(alpha, x0, y0, guess, radius, init=fit.params)
+        fit = fit_disc(alpha, x0, y0, guess, radius, init=fit.params, tol_px=tol)
     if edges is None:
         # On 4:2:0 H.264 a moving marker's luminance edge is off by 2–3× what the
         # fit's residual says (bench/luminance.py): only full-chroma frames use it.
         edges = isinstance(image, Frame) and image.full_chroma
     if fit.ok and edges:
         fit = fit_edges(patch, alpha, x0, y0, fit, radius) or fit
+    elif fit.ok and cells:
+        # The decoder's own 4:2:0 planes: the chroma is refitted where it was stored.
+        fit = fit_disc_cells(alpha, x0, y0, fit)
     if fit.ok or c is None:
         return fit, seen
     return Centre(c.x, c.y, c.sigma, c.radius, True), seen
