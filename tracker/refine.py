@@ -360,9 +360,10 @@ def fit_disc_cells(alpha: NDArray, x0: int, y0: int, pixel_fit: Centre) -> Centr
     edge can follow it, and the σ lets cells up to :data:`CELL_REACH` apart
     share errors. ``alpha``'s top-left pixel is (``x0``, ``y0``).
 
-    Starts from ``pixel_fit`` (converged) and keeps its shape, gain, residual
-    and area, which the tracker's checks for a whole marker were set on; the
-    pixel fit is returned as it is if the refit fails or lands implausibly far
+    Starts from ``pixel_fit`` (within 0.02 px, as the tracker runs it) and
+    keeps its shape, gain, residual and area, which the tracker's checks for
+    a whole marker were set on; the pixel fit is returned as it is if the
+    refit fails or lands implausibly far
     from it.
     """
     ox, oy = x0 % 2, y0 % 2
