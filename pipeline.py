@@ -29,7 +29,7 @@ from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic, wr
 from cranktrack.kinematics.compare import Comparison, compare_spool
 from cranktrack.kinematics.discrepancy import CameraView, LoopResult, close_loop
 from cranktrack.kinematics.frame_motion import frame_shake
-from cranktrack.kinematics.measured import LINK_WANDER, measure_kinematics
+from cranktrack.kinematics.measured import LINK_JUMP_SIGMA, LINK_WANDER, measure_kinematics
 from cranktrack.kinematics.plots import plot_comparison
 from cranktrack.report.fit import write_fit_report
 from cranktrack.report.summary import write_report
@@ -184,7 +184,8 @@ def track_run(
                        if v["frames_flagged"]}
             for k, n in flagged.items():
                 warnings.append(f"{n} frame(s) where the rigid length {k[:2]} jumps by more "
-                                "than 5σ from its median (rigid_ok is false there)")
+                                f"than {LINK_JUMP_SIGMA:g}σ from its median (rigid_ok is false "
+                                "there)")
             for k, link in info.links.items():
                 if link["std_over_sigma"] > LINK_WANDER:
                     warnings.append(

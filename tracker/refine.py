@@ -363,8 +363,7 @@ def fit_disc_cells(alpha: NDArray, x0: int, y0: int, pixel_fit: Centre) -> Centr
     Starts from ``pixel_fit`` (within 0.02 px, as the tracker runs it) and
     keeps its shape, gain, residual and area, which the tracker's checks for
     a whole marker were set on; the pixel fit is returned as it is if the
-    refit fails or lands implausibly far
-    from it.
+    refit fails or lands implausibly far from it.
     """
     ox, oy = x0 % 2, y0 % 2
     cells = _cell_means(np.asarray(alpha, np.float64), ox, oy)
@@ -374,16 +373,15 @@ def fit_disc_cells(alpha: NDArray, x0: int, y0: int, pixel_fit: Centre) -> Centr
     # The compiled kernels are called directly: this runs for every marker in
     # every 4:2:0 frame, and fit_disc's checks are the pixel fit's to make.
     p, inv, _, _, _, posdef = _fit_disc_compiled(
-        cells, cx0, cy0, gx, gy, pixel_fit.radius / 2,
-        np.array([gx, gy, r / 2, s / 2, gain, offset]), 8, 5e-4)
+        cells, cx0, cy0, gx, gy, r / 2, np.array([gx, gy, r / 2, s / 2, gain, offset]), 8, 5e-4)
     if not posdef:
         return pixel_fit
-    var = _sandwich_compiled(cells, cx0, cy0, gx, gy, pixel_fit.radius / 2, p, inv, CELL_REACH)
-    x, y, sigma = 2 * p[0] + 0.5, 2 * p[1] + 0.5, 2 * math.sqrt(max(var, 0.0))
+    var = _sandwich_compiled(cells, cx0, cy0, gx, gy, r / 2, p, inv, CELL_REACH)
+    x, y = 2 * p[0] + 0.5, 2 * p[1] + 0.5
     if not (np.isfinite(x) and np.isfinite(y) and var > 0 and np.hypot(
             x - pixel_fit.x, y - pixel_fit.y) <= max(0.5, 5.0 * pixel_fit.sigma)):
         return pixel_fit
-    return replace(pixel_fit, x=float(x), y=float(y), sigma=float(sigma))
+    return replace(pixel_fit, x=float(x), y=float(y), sigma=2 * math.sqrt(var))
 
 
 def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, float],

@@ -161,10 +161,14 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
             return c, seen
         guess = (c.x, c.y)
         alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker)
+    if edges is None:
+        # On 4:2:0 H.264 a moving marker's luminance edge is off by 2–3× what the
+        # fit's residual says (bench/luminance.py): only full-chroma frames use it.
+        edges = isinstance(image, Frame) and image.full_chroma
     # On the decoder's 4:2:0 planes the centre is refitted on the chroma cells
     # below, so the pixel fit need only be close (its shape and residual are for
     # the checks): 0.02 px instead of 0.001 saves an iteration or two.
-    cells = isinstance(image, Frame) and image.layout == "i420" and edges is not True
+    cells = not edges and isinstance(image, Frame) and image.layout == "i420"
     tol = 0.02 if cells else 1e-3
     fit = fit_disc(alpha, x0, y0, guess, radius, init=init, tol_px=tol)
     for _ in range(3):
@@ -176,10 +180,6 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
         patch, x0, y0 = _patch(image, guess[0], guess[1], radius + 9)
         alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker)
         fit = fit_disc(alpha, x0, y0, guess, radius, init=fit.params, tol_px=tol)
-    if edges is None:
-        # On 4:2:0 H.264 a moving marker's luminance edge is off by 2–3× what the
-        # fit's residual says (bench/luminance.py): only full-chroma frames use it.
-        edges = isinstance(image, Frame) and image.full_chroma
     if fit.ok and edges:
         fit = fit_edges(patch, alpha, x0, y0, fit, radius) or fit
     elif fit.ok and cells:
