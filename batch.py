@@ -15,8 +15,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from cranktrack.errors import CranktrackError
-from cranktrack.files import ensure_dir, write_csv_atomic
+from .errors import CranktrackError
+from .files import ensure_dir, write_csv_atomic
 
 
 def find_videos(pattern: str) -> list[Path]:
@@ -45,7 +45,7 @@ def process_one(video: str, folder: str, known_length: tuple[str, str, float] | 
 
     Runs in a worker process or on a Dask worker, so it imports what it needs.
     """
-    from cranktrack.pipeline import compare_run, track_run
+    from .pipeline import compare_run, track_run
 
     row: dict = {"video": video, "run": folder, "status": "ok", "message": ""}
     try:

@@ -11,13 +11,13 @@ import argparse
 import os
 import sys
 import tempfile
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
-from cranktrack.errors import CranktrackError
+from .errors import CranktrackError
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -49,6 +49,49 @@ def _non_negative(text: str) -> float:
     if not v >= 0:
         raise argparse.ArgumentTypeError(f"{text!r} must be 0 or more")
     return v
+
+
+def parse_numbers(items: Iterable[str] | None, names: Iterable[str], flag: str, what: str,
+                  finite: bool = False) -> dict[str, float]:
+    """``["a=1", "b=2.5"]`` → ``{"a": 1.0, "b": 2.5}``, each name one of ``names``.
+
+    ``flag`` and ``what`` word the error (``--effect``, ``a known effect``);
+    ``finite`` also refuses NaN and infinities.
+    """
+    allowed = tuple(names)
+    out: dict[str, float] = {}
+    for item in items or []:
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or name not in allowed:
+            raise CranktrackError(f"{flag} {item!r} is not NAME=VALUE with {what} "
+                                  f"({', '.join(allowed)})")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise CranktrackError(f"{flag} {item!r}: {value!r} is not a number") from None
+        if finite and not np.isfinite(out[name]):
+            raise CranktrackError(f"{flag} {item!r} is not a finite number")
+    return out
+
+
+def parse_known(items: list[str] | None, model: str = "spool") -> dict[str, float]:
+    """``["L1_mm=160.8", "start_s=0.5"]`` → a dict, checked against the model's names."""
+    from .loop.simulate import KNOWN_NAMES
+
+    names = KNOWN_NAMES.get(model)
+    if names is None:
+        raise CranktrackError(f"the {model!r} model cannot be fitted yet; available: "
+                              f"{', '.join(KNOWN_NAMES)}")
+    return parse_numbers(items, names, "--known", f"a {model} parameter", finite=True)
+
+
+def parse_effects(items: list[str] | None) -> dict[str, float]:
+    """``["slack_mm=2", "k1=-0.1"]`` → ``{"slack_mm": 2.0, "k1": -0.1}``, checked by
+    :func:`~cranktrack.synthetic.effects.check_effects`."""
+    from .synthetic.effects import EFFECTS, check_effects
+
+    return check_effects(parse_numbers(items, EFFECTS, "--effect", "a known effect"))
 
 
 def _show_progress() -> bool:
@@ -86,7 +129,7 @@ def _add_render_options(p: argparse.ArgumentParser, seconds: float = 2.5,
 
 
 def _render_settings(args: argparse.Namespace):
-    from cranktrack.synthetic.scene import RenderSettings
+    from .synthetic.scene import RenderSettings
 
     return RenderSettings(size=args.size, fps=args.fps, seconds=args.seconds,
                           noise_dn=args.noise, seed=args.seed, lossless=args.lossless,
@@ -94,8 +137,8 @@ def _render_settings(args: argparse.Namespace):
 
 
 def _spool_scenario(args: argparse.Namespace):
-    from cranktrack.kinematics.spool import SpoolDrive
-    from cranktrack.synthetic.scenarios import (
+    from .models.spool import SpoolDrive
+    from .synthetic.scenarios import (
         AntagonisticScenario,
         FreeScenario,
         SMAScenario,
@@ -106,7 +149,7 @@ def _spool_scenario(args: argparse.Namespace):
     given = getattr(args, "current_A", None)
     current = {} if given is None else {"current_A": given}
     if getattr(args, "scenario", "spool") == "antagonistic":
-        from cranktrack.kinematics.antagonistic import AntagonisticBed
+        from .models.antagonistic import AntagonisticBed
 
         return AntagonisticScenario(AntagonisticBed(
             table_mm=args.table_mm, slack_mm=args.slack_mm, **current))
@@ -120,28 +163,19 @@ def _spool_scenario(args: argparse.Namespace):
 
 
 def _render(args: argparse.Namespace, out: Path):
-    from dataclasses import replace
+    from .synthetic.scene import render_effects
 
-    from cranktrack.synthetic.effects import parse_effects
-    from cranktrack.synthetic.scene import render_scene
-
-    effects = parse_effects(getattr(args, "effect", None))
-    for name in ("k1", "k2", "tilt_deg"):  # camera effects are the camera's options
-        if name in effects:
-            setattr(args, name, effects[name])
     settings = _render_settings(args)
-    for name in ("exposure_s", "readout_s"):  # camera effects that are render settings
-        if name in effects:
-            settings = replace(settings, **{name: effects[name]})
-    scenario = _spool_scenario(args)
     with _progress("render", settings.n_frames) as bar:
-        return render_scene(scenario, out, settings, camera=_camera(args, scenario),
-                            on_frame=lambda i, n: bar.update(1), effects=effects,
-                            declare_effects=getattr(args, "declare_effects", False))
+        return render_effects(_spool_scenario(args), out, settings,
+                              parse_effects(getattr(args, "effect", None)),
+                              tilt_deg=args.tilt_deg, k1=args.k1, k2=args.k2,
+                              on_frame=lambda i, n: bar.update(1),
+                              declare_effects=getattr(args, "declare_effects", False))
 
 
 def _camera(args: argparse.Namespace, scenario, pinhole: bool = False):
-    from cranktrack.synthetic.scene import scenario_camera
+    from .synthetic.scene import scenario_camera
 
     return scenario_camera(scenario, args.size, tilt_deg=args.tilt_deg, k1=args.k1, k2=args.k2,
                            pinhole=pinhole)
@@ -160,9 +194,9 @@ def cmd_synth(args: argparse.Namespace) -> int:
 def _synth_thermal(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
-    from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic
-    from cranktrack.kinematics.heat import SMAWire
-    from cranktrack.synthetic.thermal_log import Instruments, standard_experiments, thermal_log
+    from .files import ensure_dir, write_csv_atomic, write_json_atomic
+    from .models.heat import SMAWire
+    from .synthetic.thermal_log import Instruments, standard_experiments, thermal_log
 
     out = ensure_dir(Path(args.out))
     wire = SMAWire()
@@ -177,8 +211,8 @@ def _synth_thermal(args: argparse.Namespace) -> int:
 
 
 def cmd_thermal_id(args: argparse.Namespace) -> int:
-    from cranktrack.kinematics.heat import SMAWire
-    from cranktrack.kinematics.thermal_id import identify, read_log
+    from .models.heat import SMAWire
+    from .models.thermal_id import identify, read_log
 
     wire = SMAWire(diameter_m=args.diameter_um * 1e-6, length_m=args.length_mm * 1e-3,
                    density_kg_m3=args.density, As_C=args.As, Af_C=args.Af)
@@ -202,14 +236,14 @@ def cmd_thermal_id(args: argparse.Namespace) -> int:
           "c_p and Δh are timed by the displacement (contraction start/end, thesis Fig. "
           "4.13); the thermocouple rows show what the thermocouple's lag does.")
     if args.out:
-        from cranktrack.files import write_json_atomic
+        from .files import write_json_atomic
 
         print(f"wrote {write_json_atomic(Path(args.out), result.to_dict())}")
     return 0
 
 
 def _synth_board(args: argparse.Namespace) -> int:
-    from cranktrack.synthetic.board import BoardSpec, intrinsics_views, plane_view, write_views
+    from .synthetic.board import BoardSpec, intrinsics_views, plane_view, write_views
 
     # The same camera as `synth spool` with these options (as a pinhole, to photograph boards).
     cam = _camera(args, _spool_scenario(args), pinhole=True)
@@ -227,14 +261,14 @@ def _synth_board(args: argparse.Namespace) -> int:
 
 
 def _track(args: argparse.Namespace, video: Path, out: Path):
-    from cranktrack.calibration.known_length import parse_known_length
-    from cranktrack.pipeline import track_run
-    from cranktrack.tracker.markers import DEFAULT_MARKERS, MarkerSpec
+    from .calibration.known_length import parse_known_length
+    from .pipeline import track_run
+    from .tracker.markers import DEFAULT_MARKERS, MarkerSpec
 
     known = parse_known_length(args.known_length) if args.known_length else None
     plane = None
     if getattr(args, "calibration", None):
-        from cranktrack.calibration.file import load_calibration
+        from .calibration.file import load_calibration
 
         plane = load_calibration(args.calibration)
     specs = DEFAULT_MARKERS
@@ -271,7 +305,7 @@ def cmd_view(args: argparse.Namespace) -> int:
 
 
 def _record(run: Path, spawn: bool, path: Path | None = None) -> Path:
-    from cranktrack.pipeline import record_run
+    from .pipeline import record_run
 
     try:
         return record_run(run, spawn=spawn, path=path)
@@ -310,7 +344,7 @@ def _format_table(rows: list[list[str]]) -> str:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from cranktrack.kinematics.compare import error_summary, spool_model
+    from .loop.compare import error_summary, spool_model
 
     out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="cranktrack-demo-"))
     scenario = _spool_scenario(args)
@@ -342,7 +376,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     print(f"rocking angle: measured {rocking_meas:.3f} deg, model {rocking_model:.3f} deg")
     print("('away from start/stop' leaves out the two frames either side of the drive's "
           "start and stop, where ω steps)")
-    from cranktrack.pipeline import compare_run
+    from .pipeline import compare_run
 
     fitted, plots = compare_run(run.folder, {"L1": d.L1, "L2": d.L2, "speed_mm_s": d.speed_mm_s})
     plots.append(_record(run.folder, spawn=False))
@@ -350,7 +384,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     print("Spool model fitted to the measured θ(t) (start time, stroke and L3_0 free): "
           + ", ".join(f"{k} = {v:.5g} ± {sd:.2g}" for k, (v, sd) in fitted.fit.fitted.items()))
     _print_comparison(fitted)
-    from cranktrack.pipeline import fit_run
+    from .pipeline import fit_run
 
     known = {"L1_mm": d.L1, "L2_mm": d.L2, "speed_mm_s": d.speed_mm_s, "start_s": d.start_s,
              "stroke_mm": d.stroke_mm}
@@ -384,7 +418,7 @@ def _print_comparison(result) -> None:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    from cranktrack.pipeline import compare_run
+    from .pipeline import compare_run
 
     fixed = {k: v for k, v in (("L1", args.L1), ("L2", args.L2), ("L3_0", args.L3_0),
                                ("stroke_mm", args.stroke_mm)) if v is not None}
@@ -401,11 +435,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 
 def cmd_fit(args: argparse.Namespace) -> int:
-    from cranktrack.kinematics.discrepancy import parse_known
-    from cranktrack.pipeline import fit_run
+    from .pipeline import fit_run
 
     known = parse_known(args.known, args.model)
-    from cranktrack.report.fit import fit_report
+    from .report.fit import fit_report
 
     result, files = fit_run(Path(args.run), args.model, known)
     _print_fit(fit_report(result))
@@ -453,7 +486,7 @@ def _print_fit(report: dict) -> None:
 
 
 def _board(args: argparse.Namespace):
-    from cranktrack.calibration.camera import Board
+    from .calibration.camera import Board
 
     try:
         nx, ny = (int(v) for v in args.board.lower().split("x"))
@@ -465,8 +498,8 @@ def _board(args: argparse.Namespace):
 
 
 def cmd_calibrate_camera(args: argparse.Namespace) -> int:
-    from cranktrack.calibration.camera import calibrate_camera
-    from cranktrack.calibration.file import save_camera
+    from .calibration.camera import calibrate_camera
+    from .calibration.file import save_camera
 
     flags = ("fix_aspect_ratio",) if args.fix_aspect_ratio else ()
     cal = calibrate_camera(args.images, _board(args), flags)
@@ -489,8 +522,8 @@ def cmd_calibrate_plane(args: argparse.Namespace) -> int:
     import cv2
     import pandas as pd
 
-    from cranktrack.calibration.file import load_camera, save_calibration
-    from cranktrack.calibration.plane import board_plane, points_plane
+    from .calibration.file import load_camera, save_calibration
+    from .calibration.plane import board_plane, points_plane
 
     camera = load_camera(args.camera) if args.camera else None
     if args.points:
@@ -532,15 +565,15 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     import numpy as np
     import pandas as pd
 
-    from cranktrack.files import ensure_dir, write_csv_atomic
-    from cranktrack.kinematics.maps import (
+    from .files import ensure_dir, write_csv_atomic
+    from .models.maps import (
         CONTRACTION,
         actuator_map,
         default_grid,
         force_actuator,
         rocking_angle_map,
     )
-    from cranktrack.kinematics.plots import plot_map
+    from .report.plots import plot_map
 
     if args.n < 2:
         raise CranktrackError(f"--n must be at least 2, not {args.n}")
@@ -585,9 +618,9 @@ def _sweep_material(args: argparse.Namespace) -> int:
     import numpy as np
     import pandas as pd
 
-    from cranktrack.files import ensure_dir, write_csv_atomic
-    from cranktrack.kinematics.plots import plot_actuator_curves, plot_map
-    from cranktrack.kinematics.sma_material import T_HOT_C, actuator_curve, max_work_map
+    from .files import ensure_dir, write_csv_atomic
+    from .models.sma_material import T_HOT_C, actuator_curve, max_work_map
+    from .report.plots import plot_actuator_curves, plot_map
 
     out = ensure_dir(args.out)
     if args.metric == "actuator-curve":
@@ -630,8 +663,8 @@ def _sweep_material(args: argparse.Namespace) -> int:
 
 
 def cmd_batch(args: argparse.Namespace) -> int:
-    from cranktrack.batch import run_batch
-    from cranktrack.calibration.known_length import parse_known_length
+    from .batch import run_batch
+    from .calibration.known_length import parse_known_length
 
     known = parse_known_length(args.known_length) if args.known_length else None
 

@@ -16,7 +16,7 @@ from typing import Any
 
 import pandas as pd
 
-from cranktrack.errors import CranktrackError
+from .errors import CranktrackError
 
 
 def ensure_dir(path: str | os.PathLike) -> Path:

@@ -6,6 +6,7 @@ the run keeps what was done before it.
 
 from __future__ import annotations
 
+import json
 import os
 import pickle
 import platform
@@ -17,30 +18,44 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from cranktrack.calibration.file import load_calibration, save_calibration
-from cranktrack.calibration.known_length import calibrate_known_length, check_length
-from cranktrack.calibration.plane import (
+from .calibration.file import load_calibration, save_calibration
+from .calibration.known_length import calibrate_known_length, check_length
+from .calibration.plane import (
     PlaneCalibration,
     add_plane_coordinates,
     align_to_markers,
 )
-from cranktrack.errors import CranktrackError
-from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic, write_text_atomic
-from cranktrack.kinematics.compare import Comparison, compare_spool
-from cranktrack.kinematics.discrepancy import CameraView, LoopResult, close_loop
-from cranktrack.kinematics.frame_motion import frame_shake
-from cranktrack.kinematics.measured import LINK_JUMP_SIGMA, LINK_WANDER, measure_kinematics
-from cranktrack.kinematics.plots import plot_comparison
-from cranktrack.report.fit import write_fit_report
-from cranktrack.report.summary import write_report
-from cranktrack.tracker.gaps import fill_gaps
-from cranktrack.tracker.markers import DEFAULT_MARKERS, MarkerSpec
-from cranktrack.tracker.track import TrackerState, TrackingInterrupted, track, tracks_table
-from cranktrack.tracker.video import open_frames
+from .errors import CranktrackError
+from .files import ensure_dir, write_csv_atomic, write_json_atomic, write_text_atomic
+from .kinematics.measured import LINK_JUMP_SIGMA, LINK_WANDER, measure_kinematics
+from .loop.camera_view import CameraView
+from .loop.compare import Comparison, compare_spool
+from .loop.frame_motion import frame_shake
+from .loop.search import LoopResult, close_loop
+from .report.fit import write_fit_report
+from .report.plots import plot_comparison
+from .report.summary import write_report
+from .run_folder import (
+    CALIBRATION,
+    COMPARE_FIT,
+    COMPARE_REPORT,
+    COMPARE_TABLE,
+    FIT_DIR,
+    FIT_REPORT_JSON,
+    FIT_TABLE,
+    KINEMATICS,
+    RECORDING,
+    RUN_INFO,
+    TRACKER_STATE,
+    TRACKS,
+    run_folder,
+)
+from .tracker.gaps import fill_gaps
+from .tracker.markers import DEFAULT_MARKERS, MarkerSpec
+from .tracker.track import TrackerState, TrackingInterrupted, track, tracks_table
+from .tracker.video import open_frames
 
 RUN_SCHEMA = 1
-#: The tracker's state after an interruption, for `track --resume`.
-STATE_FILE = ".tracker_state.pkl"
 
 
 def _load_state(path: Path, video: str | os.PathLike) -> TrackerState:
@@ -112,11 +127,11 @@ def track_run(
     folder = ensure_dir(out_dir)
     if on_start:
         on_start(source.expected_frames)
-    state_path = folder / STATE_FILE
+    state_path = folder / TRACKER_STATE
     saved = _load_state(state_path, video) if resume else None
 
     def checkpoint(state: TrackerState) -> None:
-        write_csv_atomic(folder / "tracks.csv", tracks_table(state.rows, specs))
+        write_csv_atomic(folder / TRACKS, tracks_table(state.rows, specs))
         write_text_atomic(state_path, pickle.dumps({"video": str(Path(video).resolve()),
                                                     "state": state}))
 
@@ -137,7 +152,7 @@ def track_run(
             warnings.append(f"marker {name} was not found in any frame; check its colour")
         elif frac < 0.95:
             warnings.append(f"marker {name} was found in only {100 * frac:.0f}% of frames")
-    files = {"tracks": write_csv_atomic(folder / "tracks.csv", tracks)}
+    files = {"tracks": write_csv_atomic(folder / TRACKS, tracks)}
     run_info = {
         "schema": RUN_SCHEMA,
         "cranktrack": _version(),
@@ -150,7 +165,7 @@ def track_run(
         "tracking": {**result.to_dict(), "fill_gaps_frames": fill_gaps_frames},
         "warnings": warnings,
     }
-    files["run"] = write_json_atomic(folder / "run.json", run_info)
+    files["run"] = write_json_atomic(folder / RUN_INFO, run_info)
 
     cal = kinematics = None
     if known_length is not None or calibration is not None:
@@ -159,7 +174,7 @@ def track_run(
             s0 = never[0]
             raise CranktrackError(
                 f"marker {s0.name} (hue {s0.hue_deg:g}°) was not found in any frame, so there "
-                f"are no kinematics; {folder / 'tracks.csv'} has what was found; check the "
+                f"are no kinematics; {folder / TRACKS} has what was found; check the "
                 "marker's colour (--marker NAME=COLOUR)")
         if calibration is not None:
             if calibration.image_size != (source.width, source.height):
@@ -174,9 +189,9 @@ def track_run(
             a, b, length = known_length
             cal = calibrate_known_length(tracks, a, b, length, (source.width, source.height))
         warnings += list(cal.warnings)
-        files["calibration"] = save_calibration(folder / "calibration.json", cal)
+        files["calibration"] = save_calibration(folder / CALIBRATION, cal)
         tracks = add_plane_coordinates(tracks, cal, names)
-        files["tracks"] = write_csv_atomic(folder / "tracks.csv", tracks)
+        files["tracks"] = write_csv_atomic(folder / TRACKS, tracks)
         if {"A", "B", "C"} <= set(names):
             kinematics, info = measure_kinematics(tracks, window_s=window_s,
                                                   scale_sigma=cal.scale_sigma)
@@ -193,46 +208,32 @@ def track_run(
                         f"run, {link['std_over_sigma']:.1f}× what the markers' σ allow; the "
                         "camera may be tilted or the lens distorting (calibrate them: "
                         "cranktrack calibrate)")
-            files["kinematics"] = write_csv_atomic(folder / "kinematics.csv", kinematics)
+            files["kinematics"] = write_csv_atomic(folder / KINEMATICS, kinematics)
         else:
             raise CranktrackError("kinematics need markers A, B and C; the run tracked only "
                                   + ", ".join(names))
         run_info["calibration"] = {"method": cal.method, **cal.quality}
         run_info["kinematics"] = info.to_dict()
         run_info["warnings"] = warnings
-        files["run"] = write_json_atomic(folder / "run.json", run_info)
+        files["run"] = write_json_atomic(folder / RUN_INFO, run_info)
     files["report"] = write_report(folder)
     return RunResult(folder, tracks, kinematics, cal, files, warnings)
 
 
 def read_kinematics(run: Path) -> pd.DataFrame:
     """``run/kinematics.csv``, checked to be a cranktrack kinematics table."""
-    path = Path(run) / "kinematics.csv"
-    if not path.is_file():
-        raise CranktrackError(f"{path} does not exist; run `cranktrack track VIDEO --out {run} "
-                              "--known-length A-C=MM` first")
-    try:
-        measured = pd.read_csv(path)
-    except (pd.errors.ParserError, UnicodeDecodeError, pd.errors.EmptyDataError) as e:
-        raise CranktrackError(f"{path} is not a readable CSV table ({e})") from None
-    missing = {"frame", "t_s", "theta_deg", "theta_deg_sigma", "L3_mm"} - set(measured.columns)
-    if missing:
-        raise CranktrackError(f"{path} lacks the column(s) {sorted(missing)}; is it a "
-                              "cranktrack kinematics table?")
-    return measured
+    return run_folder(run).read_kinematics()
 
 
-def _image_context(run: Path, measured: pd.DataFrame) -> dict[str, np.ndarray]:
+def _image_context(measured: pd.DataFrame, tracks: pd.DataFrame | None,
+                   info: dict | None) -> dict[str, np.ndarray]:
     """Where B is in the image, per kinematics row: a camera effect (lens, tilt, rolling
     shutter) leaves a residual that follows these, a mechanism effect does not."""
-    import json
-
-    try:
-        tracks = pd.read_csv(run / "tracks.csv", usecols=["frame", "B_x_px", "B_y_px"])
-        source = json.loads((run / "run.json").read_text()).get("source", {})
-    except (OSError, ValueError):
+    if tracks is None or info is None or not {"B_x_px", "B_y_px"} <= set(tracks):
         return {}
-    rows = measured[["frame"]].merge(tracks, on="frame", how="left")
+    source = info.get("source", {})
+    rows = measured[["frame"]].merge(tracks[["frame", "B_x_px", "B_y_px"]], on="frame",
+                                     how="left")
     ctx = {"B image row": rows["B_y_px"].to_numpy(float)}
     if source.get("width") and source.get("height"):
         cx, cy = (source["width"] - 1) / 2, (source["height"] - 1) / 2
@@ -241,15 +242,17 @@ def _image_context(run: Path, measured: pd.DataFrame) -> dict[str, np.ndarray]:
     return ctx
 
 
-def camera_view(run: Path) -> CameraView | None:
+def camera_view(run: Path, tracks: pd.DataFrame | None = None,
+                info: dict | None = None) -> CameraView | None:
     """The run's image geometry for the camera candidates: its calibration, the image size
-    and where A and C sit (medians of the tracks); None if the run lacks any of them."""
-    import json
-
+    and where A and C sit (medians of the tracks); None if the run lacks any of them.
+    ``tracks`` and ``info`` (``run.json``) are read from the folder unless given."""
+    folder = run_folder(run)
     try:
-        cal = load_calibration(run / "calibration.json")
-        tracks = pd.read_csv(run / "tracks.csv")
-        source = json.loads((run / "run.json").read_text()).get("source", {})
+        cal = load_calibration(folder / CALIBRATION)
+        tracks = pd.read_csv(folder / TRACKS) if tracks is None else tracks
+        info = json.loads((folder / RUN_INFO).read_text()) if info is None else info
+        source = info.get("source", {})
         size = (int(source["width"]), int(source["height"]))
         A, C = (np.array([np.nanmedian(tracks[f"{m}_x_px"]), np.nanmedian(tracks[f"{m}_y_px"])])
                 for m in "AC")
@@ -266,20 +269,29 @@ def camera_view(run: Path) -> CameraView | None:
 
 
 def fit_run(run: Path, model: str, known: dict[str, float]) -> tuple[LoopResult, list[Path]]:
-    """Close the loop on ``run/kinematics.csv``; write ``run/fit/`` and refresh the report."""
-    run = Path(run)
-    measured = read_kinematics(run)
-    result = close_loop(measured, known, model, context=_image_context(run, measured),
-                        view=camera_view(run))
+    """Close the loop on ``run/kinematics.csv``; write ``run/fit/`` and refresh the report.
+
+    The tracks and ``run.json`` are read once, for the camera candidates' image
+    geometry and the frame-motion check."""
+    folder = run_folder(run)
+    measured = folder.read_kinematics()
     try:
-        shake = frame_shake(pd.read_csv(run / "tracks.csv"))
+        tracks = pd.read_csv(folder / TRACKS)
+    except (OSError, ValueError):
+        tracks = None
+    info = folder.read_json(RUN_INFO)
+    view = camera_view(folder.path, tracks, info) if tracks is not None and info else None
+    result = close_loop(measured, known, model, context=_image_context(measured, tracks, info),
+                        view=view)
+    try:
+        shake = frame_shake(tracks) if tracks is not None else None
     except (OSError, ValueError):
         shake = None
     if shake is not None:
         result = replace(result, frame_motion=shake.to_dict())
     ok = np.isfinite(measured["t_s"]) & np.isfinite(measured["theta_deg"])
-    files = write_fit_report(run / "fit", result, measured["t_s"].to_numpy(float)[ok])
-    files.append(write_report(run))
+    files = write_fit_report(folder.fit_dir, result, measured["t_s"].to_numpy(float)[ok])
+    files.append(write_report(folder.path))
     return result, files
 
 
@@ -293,8 +305,8 @@ def compare_run(run: Path, fixed: dict[str, float]) -> tuple[Comparison, list[Pa
     measured = read_kinematics(run)
     result = compare_spool(measured, fixed)
     report = {**result.fit.to_dict(), "errors": result.summary.to_dict(orient="records")}
-    files = [write_csv_atomic(run / "compare.csv", result.table),
-             write_json_atomic(run / "compare.json", report)]
+    files = [write_csv_atomic(run / COMPARE_TABLE, result.table),
+             write_json_atomic(run / COMPARE_FIT, report)]
     figures = plot_comparison(result.table, run)
     lines = ["# Measured vs spool model", "", "| parameter | value | 1σ | unit |",
              "|---|---|---|---|"]
@@ -308,7 +320,7 @@ def compare_run(run: Path, fixed: dict[str, float]) -> tuple[Comparison, list[Pa
         lines.append(f"| {r.quantity} | {r.rms:.4g} {r.unit} | {r.max_abs:.4g} {r.unit} | "
                      f"{r.rms_pct_of_peak:.2f} | {r.fit_pct:.2f} | {r.frames} |")
     lines += [""] + [f"![{f.stem}]({f.name})" for f in figures] + [""]
-    files.append(write_text_atomic(run / "compare.md", "\n".join(lines)))
+    files.append(write_text_atomic(run / COMPARE_REPORT, "\n".join(lines)))
     files.append(write_report(run))
     return result, files + figures
 
@@ -320,44 +332,42 @@ def record_run(run: Path, spawn: bool = False, path: Path | None = None) -> Path
     ``compare``'s), its markers are drawn over the video, mapped back to pixels
     through the run's own calibration.
     """
-    import json
-
-    from cranktrack.calibration.file import load_calibration
-    from cranktrack.kinematics.spool import SpoolDrive
-    from cranktrack.report.recording import write_recording
+    from .calibration.file import load_calibration
+    from .models.spool import SpoolDrive
+    from .report.recording import write_recording
 
     run = Path(run)
-    if not (run / "tracks.csv").is_file():
-        raise CranktrackError(f"{run} has no tracks.csv; is it a cranktrack run folder?")
-    tracks = pd.read_csv(run / "tracks.csv")
-    info = json.loads((run / "run.json").read_text()) if (run / "run.json").exists() else {}
+    if not (run / TRACKS).is_file():
+        raise CranktrackError(f"{run} has no {TRACKS}; is it a cranktrack run folder?")
+    tracks = pd.read_csv(run / TRACKS)
+    info = json.loads((run / RUN_INFO).read_text()) if (run / RUN_INFO).exists() else {}
     video = info.get("source", {}).get("path")
     if video and not Path(video).is_file():
         video = None  # moved or deleted: the recording still has tracks and plots
-    kin = pd.read_csv(run / "kinematics.csv") if (run / "kinematics.csv").exists() else None
+    kin = pd.read_csv(run / KINEMATICS) if (run / KINEMATICS).exists() else None
     comparison = model_px = None
     t = tracks["t_s"].to_numpy(float)
     theta = L1 = L2 = None
-    if (run / "compare.csv").exists() and (run / "compare.json").exists():
-        comparison = pd.read_csv(run / "compare.csv")
-        report = json.loads((run / "compare.json").read_text())
+    if (run / COMPARE_TABLE).exists() and (run / COMPARE_FIT).exists():
+        comparison = pd.read_csv(run / COMPARE_TABLE)
+        report = json.loads((run / COMPARE_FIT).read_text())
         params = {k: v["value"] for k, v in {**report["fixed"], **report["fitted"]}.items()}
         drive = SpoolDrive(**params)
         theta, L1, L2 = drive.bed.theta(drive.slider(t).L3), drive.L1, drive.L2
-    fit = pd.read_csv(run / "fit" / "fit.csv") if (run / "fit" / "fit.csv").exists() else None
-    if fit is not None and (run / "fit" / "report.json").exists():
+    fit = pd.read_csv(run / FIT_DIR / FIT_TABLE) if (run / FIT_DIR / FIT_TABLE).exists() else None
+    if fit is not None and (run / FIT_DIR / FIT_REPORT_JSON).exists():
         # The closed loop's final model, effects included, is the better overlay.
         values = {k: v["value"] for k, v in
-                  json.loads((run / "fit" / "report.json").read_text())["parameters"].items()}
+                  json.loads((run / FIT_DIR / FIT_REPORT_JSON).read_text())["parameters"].items()}
         theta = np.interp(t, fit["t_s"], np.radians(fit["theta_deg_final"]),
                           left=np.nan, right=np.nan)
         L1, L2 = values["L1_mm"], values["L2_mm"]
     if theta is not None:
         side = np.sign(np.nanmedian(tracks["B_y_mm"])) if "B_y_mm" in tracks else 1.0
-        cal = load_calibration(run / "calibration.json")
+        cal = load_calibration(run / CALIBRATION)
         plane = {"A": (np.zeros_like(t), np.zeros_like(t)),
                  "B": (L2 * np.cos(theta), side * L2 * np.sin(theta)),
                  "C": (np.full_like(t, L1), np.zeros_like(t))}
         model_px = {k: np.stack(cal.to_image(*xy), axis=1) for k, xy in plane.items()}
-    return write_recording(path or run / "run.rrd", video, tracks, kin, comparison, model_px,
+    return write_recording(path or run / RECORDING, video, tracks, kin, comparison, model_px,
                            spawn=spawn, fit=fit)

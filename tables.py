@@ -12,6 +12,10 @@ MARKERS: tuple[str, ...] = ("A", "B", "C")
 #: centre of the top-left pixel is (0, 0), x right, y down).
 TRACK_PX_SUFFIXES: tuple[str, ...] = ("_x_px", "_y_px", "_sigma_px", "_ok")
 
+#: Per-marker status the tracker adds after the pixel columns: ``ok``, ``not_found``,
+#: ``partly_covered``, ``interpolated`` (``--fill-gaps``), …
+STATUS_SUFFIX = "_status"
+
 #: Per-marker columns a calibration adds (mechanism plane: A at the origin, C on +x).
 TRACK_MM_SUFFIXES: tuple[str, ...] = ("_x_mm", "_y_mm", "_sigma_mm")
 
@@ -32,6 +36,12 @@ KINEMATICS_VALUES: tuple[str, ...] = (
 def track_px_columns(markers: tuple[str, ...] = MARKERS) -> list[str]:
     """``frame``, ``t_s`` and the pixel columns for each marker, in file order."""
     return ["frame", "t_s"] + [m + s for m in markers for s in TRACK_PX_SUFFIXES]
+
+
+def tracker_columns(markers: tuple[str, ...] = MARKERS) -> list[str]:
+    """The columns the tracker writes, in file order: the pixel ones and each status."""
+    return ["frame", "t_s"] + [m + s for m in markers
+                               for s in (*TRACK_PX_SUFFIXES, STATUS_SUFFIX)]
 
 
 def track_mm_columns(markers: tuple[str, ...] = MARKERS) -> list[str]:

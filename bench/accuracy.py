@@ -38,8 +38,8 @@ from common import scene
 from cranktrack.synthetic.bounds import marker_crb_px
 from cranktrack.synthetic.scene import RenderSettings, SceneFiles
 from cranktrack.tracker.markers import DEFAULT_MARKERS, choose_blob, find_blobs
-from cranktrack.tracker.refine import fit_disc, local_coverage, weighted_centroid
-from cranktrack.tracker.track import _patch, refine, track
+from cranktrack.tracker.refine import chroma, fit_disc, local_coverage, weighted_centroid
+from cranktrack.tracker.track import patch_around, refine, track
 from cranktrack.tracker.video import open_frames
 
 BASE = {"size": (1280, 720), "fps": 30.0, "seconds": 4.0, "seed": 3}
@@ -56,7 +56,7 @@ def candidates(rgb, spec, radius):
     if blob is None:
         return None
     out = {"mask centroid": (blob.x, blob.y, np.nan)}
-    patch, x0, y0 = _patch(rgb, blob.x, blob.y, radius + 9)
+    patch, x0, y0 = patch_around(rgb, blob.x, blob.y, radius + 9)
     alpha, _ = local_coverage(patch, x0, y0, (blob.x, blob.y), radius)
     wc = weighted_centroid(alpha, x0, y0, (blob.x, blob.y), radius)
     alpha, _ = local_coverage(patch, x0, y0, (wc.x, wc.y), radius)
@@ -135,7 +135,7 @@ def main() -> None:
             pts = {m: np.array([truth[f"{m}_x_px"][0], truth[f"{m}_y_px"][0]]) for m in "ABC"}
             for m in "ABC":
                 full, chrom = marker_crb_px(pts, m, settings.size, meta["camera"]["px_per_mm"],
-                                            settings.noise_dn)
+                                            settings.noise_dn, chroma)
                 e = np.array(errs[("tracker (following)", m)], float)
                 rms_axis = np.sqrt(np.mean(np.concatenate([e[:, 0], e[:, 1]]) ** 2))
                 print(f"CRB {m}: full RGB {full:.4f} px, chroma only {chrom:.4f} px per axis; "

@@ -20,8 +20,6 @@ calibration, as ``cranktrack fit`` gives them.
 from __future__ import annotations
 
 import argparse
-import contextlib
-import io
 import json
 import time
 from pathlib import Path
@@ -29,10 +27,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from cranktrack.cli import main
-from cranktrack.kinematics.discrepancy import close_loop
-from cranktrack.kinematics.frame_motion import frame_shake
-from cranktrack.pipeline import camera_view
+from cranktrack.calibration.known_length import parse_known_length
+from cranktrack.loop.frame_motion import frame_shake
+from cranktrack.loop.search import close_loop
+from cranktrack.models.spool import SpoolDrive
+from cranktrack.pipeline import camera_view, track_run
+from cranktrack.synthetic.scenarios import FreeScenario, SMAScenario, SpoolScenario
+from cranktrack.synthetic.scene import RenderSettings, render_effects
 
 CACHE = Path(__file__).resolve().parent / ".cache" / "discrepancy"
 KNOWN = {"L1_mm": 160.8, "L2_mm": 72.4, "speed_mm_s": 14.0, "start_s": 0.5, "stroke_mm": 15.0}
@@ -54,6 +55,13 @@ EFFECTS = {
 #: synthetic 60° lens's k1 as the displacement at the half-width, k1·tan²30°, in %.
 TRUE_VALUE = {"fps_label": lambda v: v / FPS, "k1": lambda v: 100 * v * np.tan(np.pi / 6) ** 2}
 
+#: The scenes as `cranktrack synth SCENARIO` renders them by default.
+SCENARIOS = {
+    "spool": lambda: SpoolScenario(SpoolDrive(start_s=0.5, stroke_mm=15.0, speed_mm_s=14.0)),
+    "sma": lambda: SMAScenario(on_s=0.5, off_s=3.0),
+    "free": lambda: FreeScenario(theta_init_deg=70.0, omega_init_rad_s=0.0),
+}
+
 
 def tracked(name: str, effects: dict[str, float], seed: int, noise: float,
             scenario: str = "spool", size: str = "480x270", seconds: float = 2.5,
@@ -61,14 +69,11 @@ def tracked(name: str, effects: dict[str, float], seed: int, noise: float,
     """Render and track once; the run folder."""
     scene, run = CACHE / name / "scene", CACHE / name / "run"
     if not (run / "kinematics.csv").exists():
-        args = ["synth", scenario, "--out", str(scene), "--size", size, "--seconds",
-                str(seconds), "--fps", str(FPS), "--seed", str(seed), "--noise", str(noise)]
-        for k, v in effects.items():
-            args += ["--effect", f"{k}={v}"]
-        with contextlib.redirect_stdout(io.StringIO()):
-            main(args)
-            main(["track", str(scene / "video.mp4"), "--out", str(run),
-                  "--known-length", known_length])
+        w, h = (int(v) for v in size.split("x"))
+        settings = RenderSettings(size=(w, h), fps=FPS, seconds=seconds, noise_dn=noise,
+                                  seed=seed)
+        files = render_effects(SCENARIOS[scenario](), scene, settings, effects)
+        track_run(files.video, run, parse_known_length(known_length))
     return run
 
 

@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from cranktrack.errors import CranktrackError
+from ..errors import CranktrackError
 
 #: A view is flagged when its RMS exceeds this multiple of the median view's.
 BAD_VIEW_FACTOR = 3.0

@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from cranktrack.calibration.camera import CameraCalibration
-from cranktrack.calibration.plane import PlaneCalibration, similarity
-from cranktrack.errors import CranktrackError
-from cranktrack.files import write_json_atomic
+from ..errors import CranktrackError
+from ..files import write_json_atomic
+from .camera import CameraCalibration
+from .plane import PlaneCalibration, similarity
 
 SCHEMA = 2
 

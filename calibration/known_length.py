@@ -20,8 +20,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from cranktrack.calibration.plane import PlaneCalibration, similarity
-from cranktrack.errors import CranktrackError
+from ..errors import CranktrackError
+from .plane import PlaneCalibration, similarity
 
 #: Relative spread (std / median) of the known length above which we warn.
 SPREAD_WARNING = 0.01

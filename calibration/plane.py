@@ -29,8 +29,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from cranktrack.calibration.camera import Board, CameraCalibration
-from cranktrack.errors import CranktrackError
+from ..errors import CranktrackError
+from .camera import Board, CameraCalibration
 
 
 @dataclass(frozen=True)

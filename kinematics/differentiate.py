@@ -29,6 +29,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.stats import chi2
 
+from ..tracker.gaps import segments
+
 
 @dataclass(frozen=True)
 class Derivatives:
@@ -53,13 +55,6 @@ class Derivatives:
     window: int
     d1_select: NDArray[np.float64]
     d2_select: NDArray[np.float64]
-
-
-def segments(valid: NDArray[np.bool_]) -> list[tuple[int, int]]:
-    """(start, stop) index pairs of the runs of ``True`` in ``valid``."""
-    v = np.concatenate([[False], np.asarray(valid, bool), [False]])
-    edges = np.flatnonzero(np.diff(v.astype(np.int8)))
-    return list(zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True))
 
 
 def _fits(t: NDArray, y: NDArray, a: int, n: int, start: NDArray, window: int, order: int,

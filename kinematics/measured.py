@@ -34,9 +34,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pandas as pd
 
-from cranktrack.errors import CranktrackError
-from cranktrack.kinematics.differentiate import Derivatives, choose_window, local_polynomial
-from cranktrack.kinematics.table import kinematics_table
+from ..errors import CranktrackError
+from .differentiate import Derivatives, choose_window, local_polynomial
+from .table import kinematics_table
 
 
 def _xy(tracks: pd.DataFrame, m: str) -> np.ndarray:

@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 
-from cranktrack.tables import KINEMATICS_VALUES
+from ..tables import KINEMATICS_VALUES
 
 
 def kinematics_table(

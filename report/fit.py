@@ -4,21 +4,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from matplotlib.figure import Figure
 
-from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic, write_text_atomic
-from cranktrack.kinematics.discrepancy import (
-    BIC_THRESHOLD,
-    CAMERA_CANDIDATES,
-    IMPRINT_SIGMAS,
-    MODELS,
-    LoopResult,
-)
+from ..files import ensure_dir, write_csv_atomic, write_json_atomic, write_text_atomic
+from ..loop.candidates import CAMERA_CANDIDATES
+from ..loop.evidence import BIC_THRESHOLD, IMPRINT_SIGMAS
+from ..loop.search import LoopResult
+from ..loop.simulate import MODELS
+from ..run_folder import FIT_FIGURE, FIT_REPORT, FIT_REPORT_JSON, FIT_TABLE
 
 
 def fit_table(result: LoopResult, t_s: np.ndarray) -> pd.DataFrame:
@@ -34,7 +29,8 @@ def fit_table(result: LoopResult, t_s: np.ndarray) -> pd.DataFrame:
 
 def plot_residuals(table: pd.DataFrame, result: LoopResult, path: Path) -> Path:
     """θ with both models, and the residual before and after the accepted effects."""
-    fig, axes = plt.subplots(3, 1, figsize=(7.5, 7.5), sharex=True)
+    fig = Figure(figsize=(7.5, 7.5))
+    axes = fig.subplots(3, 1, sharex=True)
     t = table["t_s"]
     ax = axes[0]
     ax.plot(t, table["theta_deg_measured"], ".", ms=3, color="tab:blue", label="measured")
@@ -57,7 +53,6 @@ def plot_residuals(table: pd.DataFrame, result: LoopResult, path: Path) -> Path:
     fig.tight_layout()
     path = Path(path)
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
 
 
@@ -183,7 +178,7 @@ def write_fit_report(folder: Path, result: LoopResult, t_s: np.ndarray) -> list[
     folder = ensure_dir(Path(folder))
     report = fit_report(result)
     table = fit_table(result, t_s)
-    return [write_json_atomic(folder / "report.json", report),
-            write_csv_atomic(folder / "fit.csv", table),
-            plot_residuals(table, result, folder / "residuals.png"),
-            write_text_atomic(folder / "report.md", report_markdown(report))]
+    return [write_json_atomic(folder / FIT_REPORT_JSON, report),
+            write_csv_atomic(folder / FIT_TABLE, table),
+            plot_residuals(table, result, folder / FIT_FIGURE),
+            write_text_atomic(folder / FIT_REPORT, report_markdown(report))]

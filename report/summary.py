@@ -6,14 +6,22 @@ import json
 import os
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from matplotlib.figure import Figure
 
-from cranktrack.files import write_text_atomic
+from ..files import write_text_atomic
+from ..run_folder import (
+    COMPARE_FIT,
+    COMPARE_TABLE,
+    FIT_DIR,
+    FIT_REPORT_JSON,
+    KINEMATICS,
+    KINEMATICS_FIGURE,
+    REPORT,
+    RUN_INFO,
+    TRACKS,
+)
 
 PANELS = (("theta_deg", "θ (deg)"), ("omega_rad_s", "ω (rad/s)"), ("vB_mm_s", "|v_B| (mm/s)"))
 
@@ -28,7 +36,8 @@ def _json(path: Path) -> dict | None:
 def plot_kinematics(kinematics: pd.DataFrame, comparison: pd.DataFrame | None,
                     path: str | os.PathLike) -> Path:
     """θ, ω and |v_B| over time with ±1σ bands, and the model if there is one."""
-    fig, axes = plt.subplots(len(PANELS), 1, figsize=(7.0, 7.2), sharex=True)
+    fig = Figure(figsize=(7.0, 7.2))
+    axes = fig.subplots(len(PANELS), 1, sharex=True)
     t = kinematics["t_s"]
     for ax, (col, label) in zip(axes, PANELS, strict=True):
         m, s = kinematics[col], kinematics[f"{col}_sigma"]
@@ -45,18 +54,17 @@ def plot_kinematics(kinematics: pd.DataFrame, comparison: pd.DataFrame | None,
     fig.tight_layout()
     out = Path(path)
     fig.savefig(out, dpi=110)
-    plt.close(fig)
     return out
 
 
 def write_report(run: str | os.PathLike) -> Path:
     """Write ``run/report.md`` (and ``kinematics.png``) from what the run folder holds."""
     run = Path(run)
-    info = _json(run / "run.json") or {}
-    tracks = pd.read_csv(run / "tracks.csv")
-    kin = pd.read_csv(run / "kinematics.csv") if (run / "kinematics.csv").exists() else None
-    comparison = pd.read_csv(run / "compare.csv") if (run / "compare.csv").exists() else None
-    compare = _json(run / "compare.json")
+    info = _json(run / RUN_INFO) or {}
+    tracks = pd.read_csv(run / TRACKS)
+    kin = pd.read_csv(run / KINEMATICS) if (run / KINEMATICS).exists() else None
+    comparison = pd.read_csv(run / COMPARE_TABLE) if (run / COMPARE_TABLE).exists() else None
+    compare = _json(run / COMPARE_FIT)
     src = info.get("source", {})
     lines = [f"# Run report: {Path(src.get('path', '?')).name}", ""]
     lines += [f"- source: `{src.get('path', '?')}` ({src.get('codec', '?')}, "
@@ -91,7 +99,7 @@ def write_report(run: str | os.PathLike) -> Path:
             lines.append(f"| {k} | {v['median']:.3f} | {v['std']:.4f} | {v['range']:.4f} | "
                          f"{v['frames_flagged']} |")
     if kin is not None:
-        fig = plot_kinematics(kin, comparison, run / "kinematics.png")
+        fig = plot_kinematics(kin, comparison, run / KINEMATICS_FIGURE)
         k = info.get("kinematics", {})
         lines += ["", "## Kinematics", "",
                   f"Differentiator window {k.get('window_samples')} samples "
@@ -108,7 +116,7 @@ def write_report(run: str | os.PathLike) -> Path:
                          f"{e['max_abs']:.4g} {e['unit']} | {e['fit_pct']:.2f} |")
         figs = sorted(run.glob("fig_*.png"))
         lines += [""] + [f"![{f.stem}]({f.name})" for f in figs]
-    fit = _json(run / "fit" / "report.json")
+    fit = _json(run / FIT_DIR / FIT_REPORT_JSON)
     if fit:
         effects = ", ".join(fit["effects"]) or "none"
         lines += ["", f"## Closing the loop ({fit['model']} model)", "",
@@ -118,4 +126,4 @@ def write_report(run: str | os.PathLike) -> Path:
                   "", "![residuals](fit/residuals.png)"]
     if info.get("warnings"):
         lines += ["", "## Warnings", ""] + [f"- {w}" for w in info["warnings"]]
-    return write_text_atomic(run / "report.md", "\n".join(lines) + "\n")
+    return write_text_atomic(run / REPORT, "\n".join(lines) + "\n")

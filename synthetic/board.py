@@ -21,8 +21,8 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from cranktrack.files import ensure_dir
-from cranktrack.synthetic.camera import PinholeCamera
+from ..files import ensure_dir
+from .camera import PinholeCamera
 
 
 @dataclass(frozen=True)

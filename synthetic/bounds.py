@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import NDArray
 
-from cranktrack.synthetic.render import Style, draw_capsule, render_frame
+from .render import Style, draw_capsule, render_frame
 
 
 def marker_crb_px(points_px: dict[str, NDArray[np.float64]], name: str, size: tuple[int, int],
-                  px_per_mm: float, noise_dn: float, style: Style | None = None
-                  ) -> tuple[float, float]:
+                  px_per_mm: float, noise_dn: float,
+                  channels: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+                  style: Style | None = None) -> tuple[float, float]:
     """Cramér–Rao bound (per-axis 1-σ, px) on the centre of marker ``name``.
 
     For independent Gaussian noise of σ ``noise_dn`` on each RGB channel of
@@ -18,10 +21,10 @@ def marker_crb_px(points_px: dict[str, NDArray[np.float64]], name: str, size: tu
     ``Σ (∂μ/∂c)(∂μ/∂c)ᵀ / σ²`` over pixels and channels, with ``μ`` the
     noise-free render and the derivative taken by moving only that marker
     (everything else known). Returns ``(full_rgb, chroma_only)``: the bound
-    for all three channels and for the two chroma coordinates alone (what a
-    grey-blind estimator can use). Quantisation to 8 bits is ignored.
+    for all three channels and for the coordinates ``channels`` maps an RGB
+    image to (e.g. the tracker's two chroma coordinates: what a grey-blind
+    estimator can use). Quantisation to 8 bits is ignored.
     """
-    from cranktrack.tracker.refine import chroma
 
     style = style or Style()
     others = Style(**{**style.__dict__,
@@ -47,4 +50,4 @@ def marker_crb_px(points_px: dict[str, NDArray[np.float64]], name: str, size: tu
         cov = np.linalg.inv(D.T @ D / noise_dn**2)
         return float(np.sqrt(np.diag(cov)).mean())
 
-    return bound(dx, dy), bound(chroma(dx), chroma(dy))
+    return bound(dx, dy), bound(channels(dx), channels(dy))

@@ -18,10 +18,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cranktrack.errors import CranktrackError
-from cranktrack.kinematics.spool import spool_motion
-from cranktrack.options import parse_numbers
-from cranktrack.synthetic.scenarios import Motion, Scenario, SpoolScenario, motion_from_angle
+from ..errors import CranktrackError
+from ..models.spool import spool_motion
+from .scenarios import Motion, Scenario, SpoolScenario, motion_from_angle
 
 
 @dataclass(frozen=True)
@@ -102,9 +101,9 @@ SMA_ONLY = ("thermal_lag_s", "damping_Nms_rad")
 ANY_SCENARIO = ("pivot_amp_mm", "pivot_hz")
 
 
-def parse_effects(items: list[str] | None) -> dict[str, float]:
-    """``["slack_mm=2", "k1=-0.1"]`` → ``{"slack_mm": 2.0, "k1": -0.1}``."""
-    out = parse_numbers(items, EFFECTS, "--effect", "a known effect")
+def check_effects(out: dict[str, float]) -> dict[str, float]:
+    """``out`` (effect name → value), refused with one sentence where the effects cannot go
+    together or a value cannot be negative."""
     if "return_spring_zeta" in out and "return_spring_hz" not in out:
         raise CranktrackError("return_spring_zeta needs return_spring_hz")
     if "pivot_hz" in out and "pivot_amp_mm" not in out:
@@ -119,7 +118,7 @@ def parse_effects(items: list[str] | None) -> dict[str, float]:
 class EffectedSpool:
     """The spool scenario with physical effects switched on.
 
-    The physics is :func:`cranktrack.kinematics.spool.spool_motion` (a model
+    The physics is :func:`cranktrack.models.spool.spool_motion` (a model
     the fitting code can use too); this only turns it into marker positions.
     """
 

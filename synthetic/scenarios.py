@@ -16,12 +16,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import CubicHermiteSpline
 
-from cranktrack.kinematics.antagonistic import AntagonisticBed, simulate_antagonistic
-from cranktrack.kinematics.crank_slider import crank_state, l3_from_theta
-from cranktrack.kinematics.dynamics import CrankDynamics
-from cranktrack.kinematics.heat import CurrentSteps
-from cranktrack.kinematics.sma_bed import SMABed, simulate_bed
-from cranktrack.kinematics.spool import SpoolDrive
+from ..models.antagonistic import AntagonisticBed, simulate_antagonistic
+from ..models.crank_slider import crank_state, l3_from_theta
+from ..models.dynamics import CrankDynamics
+from ..models.heat import CurrentSteps
+from ..models.sma_bed import SMABed, simulate_bed
+from ..models.spool import SpoolDrive
 
 
 @dataclass(frozen=True)
@@ -155,7 +155,7 @@ class SMAScenario:
     """The SMA-actuated bed of thesis §2.5.3 (Table 2.3): a current step heats the
     wire, it contracts and pulls the crank from θ0 = 125° to about 98°, then the
     current stops, the wire cools and the bias spring brings the crank back
-    (:mod:`cranktrack.kinematics.sma_bed`)."""
+    (:mod:`cranktrack.models.sma_bed`)."""
 
     bed: SMABed = field(default_factory=SMABed)
     current_A: float = 1.3
@@ -193,7 +193,7 @@ class SMAScenario:
 
 @dataclass(frozen=True)
 class AntagonisticScenario:
-    """The two-wire mechanism of thesis chapter 5 (:mod:`cranktrack.kinematics.antagonistic`):
+    """The two-wire mechanism of thesis chapter 5 (:mod:`cranktrack.models.antagonistic`):
     one wire is heated and turns the rocker, then the other turns it back; the slide
     table's position ``bed.table_mm`` sets the pre-stress. The markers are A (pivot),
     B (on the rocker, at ``bed.rest_deg`` from A→C at the symmetric position) and C

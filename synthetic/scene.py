@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
-from cranktrack.errors import CranktrackError
-from cranktrack.files import ensure_dir, write_csv_atomic, write_json_atomic
-from cranktrack.synthetic.camera import Camera, PinholeCamera
-from cranktrack.synthetic.effects import (
+from ..errors import CranktrackError
+from ..files import ensure_dir, write_csv_atomic, write_json_atomic
+from .camera import Camera, PinholeCamera
+from .effects import (
     ANY_SCENARIO,
     EFFECTS,
     FREE_ONLY,
@@ -21,16 +21,16 @@ from cranktrack.synthetic.effects import (
     ShakenFrame,
     recording_times,
 )
-from cranktrack.synthetic.render import Style, draw_capsule, render_frame, to_uint8
-from cranktrack.synthetic.scenarios import (
+from .render import Style, draw_capsule, render_frame, to_uint8
+from .scenarios import (
     FreeScenario,
     Motion,
     Scenario,
     SMAScenario,
     SpoolScenario,
 )
-from cranktrack.synthetic.truth import truth_table
-from cranktrack.synthetic.video import VideoWriter
+from .truth import truth_table
+from .video import VideoWriter
 
 #: Version of the ``scene.json`` layout.
 SCENE_SCHEMA = 1
@@ -262,3 +262,34 @@ def render_scene(
     }
     scene_path = write_json_atomic(folder / "scene.json", scene)
     return SceneFiles(folder, video, truth_path, scene_path)
+
+
+#: Effects that are the camera itself (its tilt, deg, and lens k1, k2) or the render's
+#: settings (exposure and rolling-shutter readout, s), not the scene.
+CAMERA_EFFECTS = ("k1", "k2", "tilt_deg")
+SETTING_EFFECTS = ("exposure_s", "readout_s")
+
+
+def render_effects(
+    scenario: Scenario,
+    out_dir: str | os.PathLike,
+    settings: RenderSettings,
+    effects: dict[str, float],
+    tilt_deg: float = 0.0,
+    k1: float = 0.0,
+    k2: float = 0.0,
+    on_frame: Callable[[int, int], None] | None = None,
+    declare_effects: bool = False,
+) -> SceneFiles:
+    """:func:`render_scene` with ``effects`` of every kind, as ``cranktrack synth`` takes them.
+
+    Camera effects (:data:`CAMERA_EFFECTS`) replace ``tilt_deg`` (deg), ``k1`` and ``k2``
+    of the default framing (:func:`scenario_camera`); exposure and readout (s) replace the
+    ``settings``' own; the rest go to the scene.
+    """
+    camera = {"tilt_deg": tilt_deg, "k1": k1, "k2": k2}
+    camera.update({k: v for k, v in effects.items() if k in CAMERA_EFFECTS})
+    settings = replace(settings, **{k: v for k, v in effects.items() if k in SETTING_EFFECTS})
+    return render_scene(scenario, out_dir, settings,
+                        camera=scenario_camera(scenario, settings.size, **camera),
+                        on_frame=on_frame, effects=effects, declare_effects=declare_effects)

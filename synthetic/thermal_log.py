@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from cranktrack.kinematics.heat import CurrentSteps, SMAWire, simulate_wire
+from ..models.heat import CurrentSteps, SMAWire, simulate_wire
 
 
 @dataclass(frozen=True)

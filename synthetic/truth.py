@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from cranktrack.kinematics.table import kinematics_table
-from cranktrack.synthetic.camera import Camera
-from cranktrack.synthetic.scenarios import Motion
+from ..kinematics.table import kinematics_table
+from .camera import Camera
+from .scenarios import Motion
 
 
 def truth_table(motion: Motion, camera: Camera) -> pd.DataFrame:

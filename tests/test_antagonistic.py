@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from cranktrack.errors import CranktrackError
-from cranktrack.kinematics.antagonistic import (
+from cranktrack.models.antagonistic import (
     THESIS_TABLE_MM,
     AntagonisticBed,
     equilibrium_psi,

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from cranktrack.errors import CranktrackError
-from cranktrack.kinematics.crank_slider import (
+from cranktrack.models.crank_slider import (
     CrankSlider,
     Incompatibility,
     KinematicIncompatibilityError,
@@ -15,7 +15,7 @@ from cranktrack.kinematics.crank_slider import (
     theta_from_l3,
     vB_via_slider,
 )
-from cranktrack.kinematics.spool import SpoolDrive
+from cranktrack.models.spool import SpoolDrive
 
 L1, L2, L3_0 = 160.8, 72.4, 105.4  # thesis Table 2.2
 

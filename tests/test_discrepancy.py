@@ -12,9 +12,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from cranktrack.cli import main
+from cranktrack.cli import main, parse_known
 from cranktrack.errors import CranktrackError
-from cranktrack.kinematics.discrepancy import close_loop, parse_known, spool_theta
+from cranktrack.loop.search import close_loop
+from cranktrack.loop.simulate import spool_theta
 
 T = np.arange(75) / 30.0
 TRUE = {"start_s": 0.5, "stroke_mm": 15.0, "L1_mm": 160.8, "L2_mm": 72.4, "L3_0_mm": 105.4,
@@ -328,7 +329,7 @@ def _similarity_residual(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def test_camera_candidates_bend_the_image_as_the_synthetic_camera_does():
-    from cranktrack.kinematics.discrepancy import _camera_maps
+    from cranktrack.loop.camera_view import _camera_maps
     from cranktrack.synthetic.camera import PinholeCamera
 
     lo, hi = np.array([-80.0, -80.0]), np.array([170.0, 80.0])
@@ -349,7 +350,7 @@ def test_camera_candidates_bend_the_image_as_the_synthetic_camera_does():
 
 @pytest.mark.parametrize("side", [1.0, -1.0])
 def test_camera_theta_without_an_effect_is_the_angle_itself(side):
-    from cranktrack.kinematics.discrepancy import CameraView, camera_theta
+    from cranktrack.loop.camera_view import CameraView, camera_theta
 
     H = np.array([[0.5, 0.0, -40.0], [0.0, -0.5, 60.0], [0.0, 0.0, 1.0]])  # px → mm, y flipped
     Hi = np.linalg.inv(H)

@@ -6,7 +6,7 @@ import importlib
 import pytest
 
 MODULES = [
-    "cranktrack.kinematics.crank_slider",
+    "cranktrack.models.crank_slider",
     "cranktrack.kinematics.differentiate",
 ]
 

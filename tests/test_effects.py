@@ -1,14 +1,16 @@
 """Each effect shows in the truth or the video the way its documentation says."""
 
 import json
+import re
 
 import numpy as np
 import pandas as pd
 import pytest
 
+from cranktrack.cli import parse_effects
 from cranktrack.errors import CranktrackError
-from cranktrack.kinematics.crank_slider import CrankSlider
-from cranktrack.synthetic.effects import EFFECTS, EffectedSpool, parse_effects
+from cranktrack.models.crank_slider import CrankSlider
+from cranktrack.synthetic.effects import EFFECTS, EffectedSpool
 from cranktrack.synthetic.scenarios import SpoolScenario
 from cranktrack.synthetic.scene import RenderSettings, render_scene, scenario_camera
 from cranktrack.tracker.track import track
@@ -21,7 +23,8 @@ T = np.linspace(0, 3, 3001)
 def test_every_effect_is_documented_in_one_sentence():
     for name, info in EFFECTS.items():
         assert info.kind in ("physical", "recording", "camera"), name
-        assert (info.shows_as and "." not in info.shows_as.rstrip(".")[:-1]) or True
+        # One sentence: no sentence break (a stop, then a capital) inside it.
+        assert not re.search(r"[.;:!?]\s+[A-Z]", info.shows_as), name
         assert len(info.shows_as) > 30, name
 
 
@@ -164,7 +167,7 @@ def test_pivot_motion_moves_the_frame_but_not_the_crank_angle(tmp_path):
 
 
 def test_coulomb_friction_shrinks_each_swing_by_the_same_angle(tmp_path):
-    from cranktrack.kinematics.dynamics import CrankDynamics
+    from cranktrack.models.dynamics import CrankDynamics
 
     # A linear spring (no wire) and dry friction only: every half swing loses 2·f_c/k_l.
     k_l, fc = 4.0, 0.2
@@ -185,7 +188,7 @@ def test_coulomb_friction_shrinks_each_swing_by_the_same_angle(tmp_path):
 def test_wire_stretch_makes_the_crank_lag_where_the_moment_arm_is_small():
     from scipy.optimize import brentq
 
-    from cranktrack.kinematics.crank_slider import l3_from_theta
+    from cranktrack.models.crank_slider import l3_from_theta
 
     s0 = 0.5
     m = EffectedSpool(SpoolScenario(), {"wire_stretch_mm": s0}).motion(T)

@@ -4,8 +4,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from cranktrack.kinematics.compare import error_summary, spool_model
-from cranktrack.kinematics.spool import SpoolDrive
+from cranktrack.loop.compare import error_summary, spool_model
+from cranktrack.models.spool import SpoolDrive
 from cranktrack.pipeline import track_run
 from cranktrack.tables import kinematics_columns, track_mm_columns, track_px_columns
 

@@ -7,8 +7,8 @@ import pytest
 
 from cranktrack.cli import main
 from cranktrack.errors import CranktrackError
-from cranktrack.kinematics.heat import CurrentSteps, SMAWire, simulate_wire
-from cranktrack.kinematics.thermal_id import cp_derivative, identify
+from cranktrack.models.heat import CurrentSteps, SMAWire, simulate_wire
+from cranktrack.models.thermal_id import cp_derivative, identify
 from cranktrack.synthetic.thermal_log import Instruments, standard_experiments, thermal_log
 
 WIRE = SMAWire()

@@ -7,9 +7,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from cranktrack.kinematics.compare import compare_spool, fit_percent
 from cranktrack.kinematics.differentiate import choose_window, local_polynomial
 from cranktrack.kinematics.measured import crank_angle, link_excess, measure_kinematics
+from cranktrack.loop.compare import compare_spool, fit_percent
 from cranktrack.pipeline import track_run
 from cranktrack.synthetic.scenarios import SpoolScenario
 from cranktrack.synthetic.scene import RenderSettings, render_scene

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from cranktrack.kinematics.crank_slider import Incompatibility, incompatibility
-from cranktrack.kinematics.dynamics import CrankDynamics, classify
-from cranktrack.kinematics.maps import (
+from cranktrack.models.crank_slider import Incompatibility, incompatibility
+from cranktrack.models.dynamics import CrankDynamics, classify
+from cranktrack.models.maps import (
     CONTRACTION,
     CRANK_TOO_SHORT,
     FRAME_TOO_SHORT,
@@ -123,7 +123,7 @@ def test_sweep_cli_writes_csv_png_and_the_optimum(tmp_path, capsys):
 
 
 def test_reproduction_rows_marked_exact_hold():
-    from cranktrack.kinematics.reproduce import rows
+    from cranktrack.report.reproduction import rows
 
     exact = [r for r in rows() if r.exact]
     assert len(exact) == 7

@@ -5,8 +5,8 @@ import pandas as pd
 import pytest
 from scipy.optimize import brentq
 
-from cranktrack.kinematics.heat import CurrentSteps
-from cranktrack.kinematics.sma_bed import TABLE_2_3, SMABed, simulate_bed
+from cranktrack.models.heat import CurrentSteps
+from cranktrack.models.sma_bed import TABLE_2_3, SMABed, simulate_bed
 from cranktrack.pipeline import track_run
 from cranktrack.synthetic.scenarios import FreeScenario, SMAScenario
 from cranktrack.synthetic.scene import RenderSettings, render_scene
@@ -79,7 +79,7 @@ def test_sma_scenario_renders_and_tracks(tmp_path):
 
 
 def test_the_fits_quasi_static_sma_bed_follows_the_equation_of_motion():
-    from cranktrack.kinematics.discrepancy import sma_theta
+    from cranktrack.loop.simulate import sma_theta
 
     bed = SMABed()
     t = np.arange(0, 5, 1 / 30)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from cranktrack.errors import CranktrackError
-from cranktrack.kinematics.maps import (
+from cranktrack.models.maps import (
     FORCE_ACTUATORS,
     OK,
     actuator_map,
@@ -12,7 +12,7 @@ from cranktrack.kinematics.maps import (
     force_actuator,
     rocking_angle_map,
 )
-from cranktrack.kinematics.sma_material import (
+from cranktrack.models.sma_material import (
     PRESTRAIN_PCT,
     actuator_curve,
     envelope_stress,

@@ -15,7 +15,7 @@ from cranktrack.synthetic.render import Style
 from cranktrack.synthetic.scenarios import SpoolScenario
 from cranktrack.synthetic.scene import RenderSettings, render_scene
 from cranktrack.tracker.markers import Blob, MarkerSpec, choose_blob
-from cranktrack.tracker.refine import fit_disc, fit_disc_cells
+from cranktrack.tracker.refine import chroma, fit_disc, fit_disc_cells
 from cranktrack.tracker.track import STATUSES, track
 from cranktrack.tracker.video import open_frames
 
@@ -63,7 +63,8 @@ def test_noisy_lossless_near_the_cramer_rao_bound_and_sigma_honest(render):
     for m in "ABC":
         e = _errors(result.tracks, truth, m)
         per_axis = np.sqrt(np.mean(e**2) / 2)
-        full, chroma_only = marker_crb_px(pts, m, BASE["size"], scene["camera"]["px_per_mm"], 2.5)
+        full, chroma_only = marker_crb_px(pts, m, BASE["size"], scene["camera"]["px_per_mm"], 2.5,
+                                          chroma)
         # Lossless RGB frames: the luminance of the clean edge sectors joins the
         # chroma (bench: 1.2–1.35× the full bound at r = 15 px; here 1.15–1.5×).
         assert full < chroma_only

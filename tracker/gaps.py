@@ -4,8 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+from numpy.typing import NDArray
 
-from cranktrack.kinematics.differentiate import segments
+
+def segments(valid: NDArray[np.bool_]) -> list[tuple[int, int]]:
+    """(start, stop) index pairs of the runs of ``True`` in ``valid``."""
+    v = np.concatenate([[False], np.asarray(valid, bool), [False]])
+    edges = np.flatnonzero(np.diff(v.astype(np.int8)))
+    return list(zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True))
 
 
 def fill_gaps(tracks: pd.DataFrame, markers: tuple[str, ...], max_frames: int) -> pd.DataFrame:

@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from cranktrack.errors import CranktrackError
+from ..errors import CranktrackError
 
 #: Hue (degrees on the 0–360 circle) of colour names a user may give.
 COLOUR_HUES_DEG = {

@@ -18,7 +18,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from cranktrack.tracker.markers import (
+from ..tables import tracker_columns
+from .markers import (
     DEFAULT_MARKERS,
     MarkerSpec,
     acquire,
@@ -28,7 +29,7 @@ from cranktrack.tracker.markers import (
     learn_spec,
     white_balance_gains,
 )
-from cranktrack.tracker.refine import (
+from .refine import (
     Centre,
     fit_disc,
     fit_disc_cells,
@@ -36,7 +37,7 @@ from cranktrack.tracker.refine import (
     local_coverage,
     weighted_centroid,
 )
-from cranktrack.tracker.video import Frame, FrameSource, timing_report
+from .video import Frame, FrameSource, timing_report
 
 #: Why a marker has no position in a frame (the ``_status`` column).
 STATUSES = {
@@ -122,7 +123,7 @@ class _MarkerState:
         return float(np.hypot(x1 - x0, y1 - y0))
 
 
-def _patch(image: Frame | NDArray, cx: float, cy: float, half: float
+def patch_around(image: Frame | NDArray, cx: float, cy: float, half: float
            ) -> tuple[NDArray[np.uint8], int, int]:
     """The pixels within ``half`` px of (cx, cy), clipped to the image, and the
     patch's top-left pixel. ``image`` is a frame (converted to RGB only
@@ -152,7 +153,7 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     chroma's resolution instead (:func:`.refine.fit_disc_cells`).
     Returns the centre and the chroma seen in its middle.
     """
-    patch, x0, y0 = _patch(image, guess[0], guess[1], radius + 9)
+    patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
     alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker)
     c = None
     if init is None:
@@ -177,7 +178,7 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
         if not fit.ok or np.hypot(fit.x - guess[0], fit.y - guess[1]) <= 0.5:
             break
         guess = (fit.x, fit.y)
-        patch, x0, y0 = _patch(image, guess[0], guess[1], radius + 9)
+        patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
         alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker)
         fit = fit_disc(alpha, x0, y0, guess, radius, init=fit.params, tol_px=tol)
     if fit.ok and edges:
@@ -216,7 +217,7 @@ def _locate(frame: Frame, state: _MarkerState, t: float, hsv_cache: dict
                     state.remember(centre, seen)
                     return centre, "ok"
             half = 3.0 * r + 2.0 * state.speed_px() + 4.0
-            patch, x0, y0 = _patch(frame, pred[0], pred[1], half)
+            patch, x0, y0 = patch_around(frame, pred[0], pred[1], half)
             hsv = balanced_hsv(patch, hsv_cache.get("gains"))
             blob, status = choose_blob(find_blobs(hsv, state.spec, x0, y0), state.area, pred)
     if blob is None:
@@ -237,7 +238,7 @@ def _locate(frame: Frame, state: _MarkerState, t: float, hsv_cache: dict
     radius = state.radius or blob.radius
     if not state.learned:
         # Learning follows a full-frame search, whose white-balanced HSV is at hand.
-        hsv_patch, x0, y0 = _patch(hsv_cache["full"], blob.x, blob.y, radius + 3)
+        hsv_patch, x0, y0 = patch_around(hsv_cache["full"], blob.x, blob.y, radius + 3)
         state.spec = learn_spec(state.spec, hsv_patch, (blob.x, blob.y), radius, x0, y0)
         state.learned = True
     centre, seen = refine(frame, (blob.x, blob.y), radius, state.marker)
@@ -296,10 +297,7 @@ class TrackingInterrupted(KeyboardInterrupt):
 
 def tracks_table(rows: list[list], specs: tuple[MarkerSpec, ...]) -> pd.DataFrame:
     """The tracks table from finished rows."""
-    cols = ["frame", "t_s"] + [
-        s.name + suffix for s in specs
-        for suffix in ("_x_px", "_y_px", "_sigma_px", "_ok", "_status")]
-    tracks = pd.DataFrame(rows, columns=cols)
+    tracks = pd.DataFrame(rows, columns=tracker_columns(tuple(s.name for s in specs)))
     tracks["frame"] = tracks["frame"].astype(int)
     for s in specs:
         tracks[s.name + "_ok"] = tracks[s.name + "_ok"].astype(bool)
@@ -332,7 +330,7 @@ def track(
     CranktrackError
         No frame could be decoded.
     """
-    from cranktrack.errors import CranktrackError
+    from ..errors import CranktrackError
 
     state = resume or TrackerState([_MarkerState(spec) for spec in specs], {"gains": None}, [])
     done = state.last_frame

@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import ODEintWarning, odeint, solve_ivp
 
-from cranktrack.errors import CranktrackError
+from ..errors import CranktrackError
 
 
 @dataclass(frozen=True)

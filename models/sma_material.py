@@ -49,8 +49,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import brentq
 
-from cranktrack.errors import CranktrackError
-from cranktrack.kinematics.maps import grid_max
+from ..errors import CranktrackError
+from .grid import grid_max
 
 #: Recoverable (pre-)strain of the idealised wire, % (§2.3.3).
 PRESTRAIN_PCT = 3.25

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cranktrack.errors import CranktrackError
-from cranktrack.kinematics.crank_slider import CrankSlider, SliderState, crank_state, l3_from_theta
+from ..errors import CranktrackError
+from .crank_slider import CrankSlider, SliderState, crank_state, l3_from_theta
 
 #: Thesis Table 2.2, mm and mm/s.
 TABLE_2_2 = {"L1": 160.8, "L2": 72.4, "L3_0": 105.4, "speed_mm_s": 14.0}

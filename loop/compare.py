@@ -15,10 +15,11 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import least_squares
 
-from cranktrack.errors import CranktrackError
-from cranktrack.kinematics.crank_slider import crank_state
-from cranktrack.kinematics.spool import SpoolDrive
-from cranktrack.kinematics.table import kinematics_table
+from ..errors import CranktrackError
+from ..kinematics.table import kinematics_table
+from ..models.crank_slider import crank_state
+from ..models.spool import SpoolDrive
+from .evidence import fit_percent
 
 #: Columns compared by default, with their units for display.
 COMPARED = {"theta_deg": "deg", "omega_rad_s": "rad/s", "vB_mm_s": "mm/s"}
@@ -33,14 +34,6 @@ def spool_model(drive: SpoolDrive, t_s: np.ndarray) -> pd.DataFrame:
     slider = drive.slider(t_s)
     s = crank_state(drive.bed, slider)
     return kinematics_table(t_s, s.theta, s.omega, s.alpha, s.vB, slider.L3, slider.L3_rate)
-
-
-def fit_percent(measured: np.ndarray, model: np.ndarray) -> float:
-    """``100·(1 − ‖y − ŷ‖ / ‖y − ȳ‖)`` over the samples both have."""
-    ok = np.isfinite(measured) & np.isfinite(model)
-    y, yh = measured[ok], model[ok]
-    spread = np.linalg.norm(y - y.mean())
-    return float(100.0 * (1.0 - np.linalg.norm(y - yh) / spread)) if spread > 0 else np.nan
 
 
 def error_summary(measured: pd.DataFrame, model: pd.DataFrame,

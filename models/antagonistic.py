@@ -54,9 +54,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import solve_ivp
 
-from cranktrack.errors import CranktrackError
-from cranktrack.kinematics.heat import CurrentSteps, SMAWire, simulate_wire
-from cranktrack.kinematics.sma_material import PRESTRAIN_PCT, envelope_stress
+from ..errors import CranktrackError
+from .heat import CurrentSteps, SMAWire, simulate_wire
+from .sma_material import PRESTRAIN_PCT, envelope_stress
 
 #: The thesis's pre-stress steps, mm (§5.3.2).
 THESIS_TABLE_MM = (0.0, 2.5, 5.0, 7.5, 10.0, 12.5)

@@ -18,7 +18,7 @@ from enum import Enum
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cranktrack.errors import CranktrackError
+from ..errors import CranktrackError
 
 __all__ = [
     "CrankSlider",

@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from cranktrack.kinematics.crank_slider import l3_from_theta
+from .crank_slider import l3_from_theta
 
 #: Angular speed (rad/s) over which the Coulomb friction term changes sign.
 COULOMB_SMOOTHING = 0.01

@@ -24,18 +24,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from .grid import grid_max
+from .sma_material import actuator_curve
+
 #: Fractional contraction of each fixed-contraction actuator.
 CONTRACTION = {
     "rigid": 0.05,  # §2.2.2: "the slider length is initially assumed to reduce by 5 %"
     "muscle": 0.25 * 0.55,  # §2.6: 25 % of the contractile part, 55 % of the musculotendon
 }
-
-def grid_max(z: NDArray, columns: NDArray, rows: NDArray) -> tuple[float, float, float]:
-    """(largest value of the map ``z``, its column coordinate, its row coordinate); NaN
-    cells are skipped."""
-    r, c = np.unravel_index(np.nanargmax(z), z.shape)
-    return float(z[r, c]), float(columns[c]), float(rows[r])
-
 
 #: Reason codes in :attr:`RockingMap.reason`.
 OK, FRAME_TOO_SHORT, CRANK_TOO_SHORT = 0, 1, 2
@@ -151,8 +147,6 @@ def actuator_map(ratio: NDArray, theta0_deg: NDArray, free_fraction: float,
 
 def force_actuator(name: str) -> tuple[float, Callable[[NDArray], NDArray]]:
     """(free stroke as a fraction of L3₀, force in N against fraction of stroke) by name."""
-    from cranktrack.kinematics.sma_material import actuator_curve
-
     curve = actuator_curve()
     if name == "linear":
         curve = curve.linearised()

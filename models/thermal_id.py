@@ -39,8 +39,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from cranktrack.errors import CranktrackError
-from cranktrack.kinematics.heat import SMAWire
+from ..errors import CranktrackError
+from .heat import SMAWire
 
 LOG_COLUMNS = ("t_s", "voltage_V", "current_A", "temperature_C", "displacement_mm")
 #: The exponential shape eq. 4.15 assumes: the response reaches T_f at 2.2 time constants.

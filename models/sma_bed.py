@@ -37,9 +37,9 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
-from cranktrack.errors import CranktrackError
-from cranktrack.kinematics.crank_slider import l3_from_theta
-from cranktrack.kinematics.heat import CurrentSteps, SMAWire, simulate_wire
+from ..errors import CranktrackError
+from .crank_slider import l3_from_theta
+from .heat import CurrentSteps, SMAWire, simulate_wire
 
 #: Thesis Table 2.3: geometry, start and final angle of the SMA-actuated mechanism.
 TABLE_2_3 = {"L1": 305.0, "L2": 24.1, "theta0_deg": 125.0, "thetaf_deg": 98.0,

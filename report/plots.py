@@ -5,12 +5,9 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")  # files only; never a window
-import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from matplotlib.figure import Figure
 
 #: (file name, title, panels: (column, y label)) — thesis figure numbers in the titles.
 FIGURES = (
@@ -32,8 +29,8 @@ def plot_comparison(table: pd.DataFrame, folder: str | os.PathLike) -> list[Path
     out = []
     t = table["t_s"]
     for name, title, panels in FIGURES:
-        fig, axes = plt.subplots(len(panels), 1, figsize=(6.4, 2.6 * len(panels) + 0.6),
-                                 sharex=True, squeeze=False)
+        fig = Figure(figsize=(6.4, 2.6 * len(panels) + 0.6))
+        axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)
         for ax, (col, label) in zip(axes[:, 0], panels, strict=True):
             m, s = table[f"{col}_measured"], table[f"{col}_measured_sigma"]
             ax.fill_between(t, m - s, m + s, color="tab:blue", alpha=0.25, lw=0,
@@ -48,7 +45,6 @@ def plot_comparison(table: pd.DataFrame, folder: str | os.PathLike) -> list[Path
         fig.tight_layout()
         path = Path(folder) / name
         fig.savefig(path, dpi=110)
-        plt.close(fig)
         out.append(path)
     return out
 
@@ -58,7 +54,8 @@ def plot_map(x: np.ndarray, y: np.ndarray, z: np.ndarray, path: str | os.PathLik
              axes: tuple[str, str] = ("frame length L1 / L2", "starting angle θ0 (deg)"),
              note: str = "white: the mechanism cannot close (Fig. 2.5)") -> Path:
     """A filled contour map, by default over (L1/L2, θ0) like thesis Figs. 2.6 and 2.41."""
-    fig, ax = plt.subplots(figsize=(6.4, 4.8))
+    fig = Figure(figsize=(6.4, 4.8))
+    ax = fig.subplots()
     levels = np.linspace(np.nanmin(z), np.nanmax(z), 15)
     cs = ax.contourf(x, y, z, levels=levels, cmap="viridis")
     fig.colorbar(cs, ax=ax, label=label)
@@ -72,14 +69,14 @@ def plot_map(x: np.ndarray, y: np.ndarray, z: np.ndarray, path: str | os.PathLik
     fig.tight_layout()
     out = Path(path)
     fig.savefig(out, dpi=110)
-    plt.close(fig)
     return out
 
 
 def plot_actuator_curves(curves: dict[str, tuple[np.ndarray, np.ndarray]],
                          path: str | os.PathLike, title: str) -> Path:
     """Force against stroke for named actuator curves, like thesis Fig. 2.14."""
-    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    fig = Figure(figsize=(6.4, 4.4))
+    ax = fig.subplots()
     for name, (stroke, force) in curves.items():
         ax.plot(stroke, force, label=name)
     ax.set_xlabel("stroke (% of wire length)")
@@ -91,7 +88,6 @@ def plot_actuator_curves(curves: dict[str, tuple[np.ndarray, np.ndarray]],
     fig.tight_layout()
     out = Path(path)
     fig.savefig(out, dpi=110)
-    plt.close(fig)
     return out
 
 
@@ -101,7 +97,8 @@ def plot_phase_portrait(dyn, path: str | os.PathLike, starts: list[tuple[float, 
     th = np.linspace(0.05, 2 * np.pi - 0.05, 31)
     om = np.linspace(-1.5, 1.5, 25)
     T, W = np.meshgrid(th, om)
-    fig, ax = plt.subplots(figsize=(6.4, 4.8))
+    fig = Figure(figsize=(6.4, 4.8))
+    ax = fig.subplots()
     ax.quiver(T, W, W, dyn.accel(T, W), color="tab:red", alpha=0.5, angles="xy")
     t = np.linspace(0, t_end, 3000)
     for th0, om0 in starts:
@@ -118,5 +115,4 @@ def plot_phase_portrait(dyn, path: str | os.PathLike, starts: list[tuple[float, 
     fig.tight_layout()
     out = Path(path)
     fig.savefig(out, dpi=110)
-    plt.close(fig)
     return out

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 from scipy.signal import lombscargle
 
-from cranktrack.kinematics.discrepancy import (
+from .evidence import (
     BIC_THRESHOLD,
     IMPRINT_SIGMAS,
     effective_samples,

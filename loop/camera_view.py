@@ -1,0 +1,150 @@
+"""How camera effects bend the angle a run measures: lens, tilts and a rolling shutter.
+
+A :class:`CameraView` holds the run's own image geometry; :func:`camera_theta`
+says what angle the run would measure for a true angle through the camera effects
+of :data:`.candidates.CAMERA_CANDIDATES`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .candidates import CAMERA_PARAMETERS, DEFAULT_HFOV_DEG, READOUT
+
+
+@dataclass(frozen=True)
+class CameraView:
+    """Where the mechanism sits in the image and how the run maps pixels to the plane.
+
+    What a camera candidate needs to say how it would bend the measured angle:
+    ``to_plane`` and ``to_image`` map (n, 2) px ↔ mm as the run's calibration does;
+    ``size`` is the image (width, height), px; ``A_px`` and ``C_px`` the
+    measured pivot and slider end (medians), px; ``side`` +1 or −1, the side of
+    A→C the crank tip is on in the plane.
+    """
+
+    to_plane: Callable[[NDArray], NDArray]
+    to_image: Callable[[NDArray], NDArray]
+    size: tuple[int, int]
+    A_px: NDArray[np.float64]
+    C_px: NDArray[np.float64]
+    side: float
+
+
+def _tilted(q: NDArray, tau: float, forward: bool) -> NDArray:
+    """A pinhole's tilt by ``tau`` (rad) about its x axis, in coordinates over the focal
+    length, re-aimed so the image centre stays on the centre: forward from the image an
+    untilted camera would take, or back."""
+    c, s = np.cos(tau), np.sin(tau)
+    x, y = q[:, 0], q[:, 1]
+    if forward:
+        y = y - np.tan(tau)
+        d = c - y * s
+        return np.stack([x / d, (y * c + s) / d], axis=1)
+    qy = (y * c - s) / (c + y * s)
+    return np.stack([x * (c - qy * s), qy + np.tan(tau)], axis=1)
+
+
+def _camera_maps(values: dict[str, float], size: tuple[int, int]
+                 ) -> tuple[Callable[[NDArray], NDArray], Callable[[NDArray], NDArray]]:
+    """(seen, ideal): where the camera effects put an ideal image point, and back, px.
+
+    Tilts are exact pinhole tilts (:func:`_tilted`, about the image's horizontal
+    axis for ``tilt_vertical_deg``, its vertical axis for ``tilt_horizontal_deg``)
+    for a lens of ``hfov_deg`` (:data:`DEFAULT_HFOV_DEG` unless known); the lens
+    then scales coordinates centred on the image and over its half-width by
+    ``1 + k·|u|²``, k = ``lens_edge_pct``/100.
+    """
+    c = (np.asarray(size, float) - 1.0) / 2.0
+    half = size[0] / 2.0
+    k = values.get("lens_edge_pct", 0.0) / 100.0
+    tilts = []
+    for axis, swap in (("vertical", False), ("horizontal", True)):
+        # Signed as ``cranktrack synth --effect tilt_deg`` turns its camera.
+        tau = -np.radians(values.get(f"tilt_{axis}_deg", 0.0))
+        if tau:
+            fov = np.radians(values.get("hfov_deg", DEFAULT_HFOV_DEG))
+            tilts.append((tau, half / np.tan(fov / 2.0), swap))
+
+    def tilt(px: NDArray, forward: bool) -> NDArray:
+        for tau, f, swap in tilts if forward else tilts[::-1]:
+            q = (px - c) / f
+            q = _tilted(q[:, ::-1], tau, forward)[:, ::-1] if swap else _tilted(q, tau, forward)
+            px = c + f * q
+        return px
+
+    def seen(px: NDArray) -> NDArray:
+        u = (tilt(px, True) - c) / half
+        return c + half * u * (1.0 + k * np.sum(u**2, axis=1, keepdims=True))
+
+    def ideal(px: NDArray) -> NDArray:
+        w = (px - c) / half
+        u = w.copy()
+        if k:
+            for _ in range(30):  # k·|u|² ≪ 1: a contraction that settles in a few steps
+                step = w / (1.0 + k * np.sum(u**2, axis=1, keepdims=True))
+                done = np.max(np.abs(step - u)) < 1e-13
+                u = step
+                if done:
+                    break
+        return tilt(c + half * u, False)
+
+    return seen, ideal
+
+
+def _crank_tip(theta: NDArray, values: dict[str, float], view: CameraView
+               ) -> tuple[NDArray, NDArray]:
+    """B in the plane at true angles ``theta`` (rad), A and C where the measured ones
+    would be without the camera effects in ``values``, |AB|/|AC| = L2/L1; and B's
+    image point through those effects, px."""
+    seen, ideal = _camera_maps(values, view.size)
+    A, C = view.to_plane(ideal(np.vstack([view.A_px, view.C_px])))
+    span = C - A
+    e = span / np.hypot(*span)
+    n = view.side * np.array([-e[1], e[0]])
+    crank = values["L2_mm"] / values["L1_mm"] * np.hypot(*span)
+    B = A + crank * (np.cos(theta)[:, None] * e + np.sin(theta)[:, None] * n)
+    return B, seen(view.to_image(B))
+
+
+def camera_theta(theta: NDArray, values: dict[str, float], view: CameraView) -> NDArray:
+    """The angle the run would measure for true angles ``theta`` (rad) through the
+    camera effects in ``values`` (:data:`CAMERA_CANDIDATES`).
+
+    B is placed by :func:`_crank_tip`, imaged through the effects and mapped
+    back to the plane by the run's own calibration, as are the measured A and C.
+    """
+    Bm = view.to_plane(_crank_tip(theta, values, view)[1])
+    Am, Cm = view.to_plane(np.vstack([view.A_px, view.C_px]))
+    u, v = Cm - Am, Bm - Am
+    return np.arctan2(np.abs(u[0] * v[:, 1] - u[1] * v[:, 0]), v @ u)
+
+
+def with_camera(simulate: Callable, view: CameraView | None) -> Callable:
+    """``simulate`` followed by the camera effects, when there are any.
+
+    A rolling shutter simulates again at the times B is caught (A and C stand
+    still on these beds, so B's time is θ's): B's row moves by far less than
+    the image between that time and the frame's, so one correction is enough.
+    """
+    if view is None:
+        return simulate
+
+    def run(values: dict[str, float], t_s: NDArray) -> NDArray:
+        theta = simulate(values, t_s)
+        readout = values.get(READOUT, 0.0)
+        if readout:
+            row = np.clip(_crank_tip(theta, values, view)[1][:, 1], 0.0, view.size[1])
+            late = t_s + readout * row / view.size[1]
+            # A negative readout can put the first frame before the first time asked for;
+            # the models take times in order, which a readout shorter than a frame keeps.
+            theta = simulate(values, late)
+        if not any(values.get(k, 0.0) for k in CAMERA_PARAMETERS):
+            return theta
+        return camera_theta(theta, values, view)
+
+    return run

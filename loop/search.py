@@ -1,0 +1,503 @@
+"""Close the loop between measured θ(t) and a model: residual, missing effect, before/after.
+
+Three base models (:data:`MODELS`): ``spool`` (the rigid bed of thesis §2.5.2),
+``dynamic`` (the free response of eq. 3.28) and ``sma`` (the current-heated bed of
+§2.5.3 with the heat model of chapter 4), each with its own effect library.
+
+1. The base model is fitted by simulation (output error): least squares of
+   measured minus simulated θ over every parameter the user did not fix
+   (``known``), from several starts.
+2. Its residual is diagnosed: RMS, largest, fit%, Ljung–Box whiteness, and
+   what it correlates with (time, θ, ω, the sign of ω, the drive's phases,
+   the marker's place in the image).
+3. Every candidate effect of the model (e.g. :data:`CANDIDATES` for the
+   spool, each a model extension with its own physical parameters) is fitted
+   on top of the current model.
+4. A candidate passes only if ΔBIC > 20 (:data:`BIC_THRESHOLD`), its
+   parameter's 95 % interval excludes "no effect", the value is physically
+   plausible and its imprint on θ rises above the noise; the passing one
+   with the largest ΔBIC is accepted (any that fit as well or better but
+   fail are named beside it), then the rest are tried again on top of it,
+   until nothing more is accepted or the residual is white.
+
+The BIC and the parameter intervals count independent evidence, not frames
+(:mod:`.evidence` says why and how).
+
+Candidates a model cannot tell apart are handled openly: an effect that
+needs a known value to be separable (a dead time is a later start unless the
+start time is known) is not fitted without it and the report says which
+value would separate it; candidates that fit equally well are reported as a
+group with the experiment that would tell them apart.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+from scipy.optimize import least_squares
+
+from ..errors import CranktrackError
+from .camera_view import CameraView, with_camera
+from .candidates import CAMERA_CANDIDATES, Candidate, Parameter
+from .evidence import (
+    BIC_THRESHOLD,
+    IMPRINT_SIGMAS,
+    LOOK_ALIKE_BIC,
+    WHITE_P,
+    ModelFit,
+    NoiseModel,
+    delta_bic,
+    diagnose,
+    independent_frames,
+    link_evidence,
+    ljung_box_p,
+    still_segments,
+)
+from .simulate import MODELS, ModelSpec
+
+#: Model evaluations per least-squares start: kinked models (a drive that starts and
+#: stops) can crawl along a valley for thousands of steps without gaining anything.
+MAX_EVALUATIONS = 200
+
+
+def _fit(t: NDArray, theta: NDArray, simulate: Callable, fixed: dict[str, float],
+         free: list[Parameter], starts: list[list[float]], effects: tuple[str, ...],
+         diff_step: float = 1e-7) -> ModelFit | None:
+    """Least squares of ``theta − simulate(values, t)`` from each start; the best, or None."""
+    def values_of(x: NDArray) -> dict[str, float]:
+        return {**fixed, **{p.name: float(v) for p, v in zip(free, x, strict=True)}}
+
+    def residual(x: NDArray) -> NDArray:
+        try:
+            return theta - simulate(values_of(x), t)
+        except (CranktrackError, ValueError, FloatingPointError):
+            return np.full(t.size, 10.0)  # a linkage that cannot close: far from any fit
+
+    lo = np.array([p.lower for p in free])
+    hi = np.array([p.upper for p in free])
+    width = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
+    best = None
+    for x0 in starts:
+        x0 = np.clip(np.asarray(x0, float), lo + 1e-9 * width, hi - 1e-9 * width)
+        if np.all(residual(x0) == 10.0):
+            continue
+        with np.errstate(all="ignore"):
+            sol = least_squares(residual, x0, bounds=(lo, hi), x_scale="jac", method="trf",
+                                diff_step=diff_step, max_nfev=MAX_EVALUATIONS)
+        if best is None or sol.cost < best.cost:
+            best = sol
+    if best is None or np.all(best.fun == 10.0):
+        return None
+    unit_cov = np.linalg.pinv(best.jac.T @ best.jac)
+    return ModelFit(effects, values_of(best.x), tuple(p.name for p in free), unit_cov,
+                    theta - best.fun, best.fun)
+
+
+@dataclass(frozen=True)
+class CandidateScore:
+    """One candidate tried on top of the current model in one round.
+
+    ``imprint_deg`` is the largest change the effect makes to θ at its
+    fitted value; ``resolvable`` says whether that rises above the noise
+    (:data:`IMPRINT_SIGMAS`) anywhere — an effect smaller than the tracker's own error cannot
+    be told from it, however well it happens to bend around that error.
+    """
+
+    name: str
+    round: int
+    delta_bic: float
+    rmse_deg: float
+    values: dict[str, float]
+    sigmas: dict[str, float]
+    imprint_deg: float
+    ci_excludes_off: bool
+    plausible: bool
+    resolvable: bool
+    accepted: bool = False
+    note: str = ""
+
+    @property
+    def passes(self) -> bool:
+        return (self.delta_bic > BIC_THRESHOLD and self.ci_excludes_off and self.plausible
+                and self.resolvable)
+
+    def why_not(self) -> str:
+        why = []
+        if self.delta_bic <= BIC_THRESHOLD:
+            why.append(f"ΔBIC {self.delta_bic:.1f} ≤ {BIC_THRESHOLD:g}")
+        if not self.ci_excludes_off:
+            why.append("its 95 % interval includes no effect")
+        if not self.plausible:
+            why.append("value not physically plausible or stuck on a bound")
+        if not self.resolvable:
+            why.append(f"its imprint ({self.imprint_deg:.3g}°) is below {IMPRINT_SIGMAS:g}σ "
+                       "of the noise")
+        return "; ".join(why) or "a better candidate was accepted"
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "round": self.round, "delta_bic": self.delta_bic,
+                "rmse_deg": self.rmse_deg, "imprint_deg": self.imprint_deg,
+                "parameters": {k: {"value": v, "sigma": self.sigmas.get(k)}
+                               for k, v in self.values.items()},
+                "ci_excludes_off": self.ci_excludes_off, "plausible": self.plausible,
+                "resolvable": self.resolvable, "accepted": self.accepted, "note": self.note}
+
+
+def _switched_off(c: Candidate) -> dict[str, float]:
+    """Values that make the simulation leave the effect out (a ring of 0 Hz is none)."""
+    return {c.parameters[0].name: 0.0 if np.isinf(c.off) else c.off}
+
+
+def _score(c: Candidate, rnd: int, current: ModelFit, alt: ModelFit, noise: NoiseModel,
+           t: NDArray, simulate: Callable, nyquist_hz: float) -> CandidateScore:
+    """ΔBIC, interval, plausibility and imprint of ``alt`` = ``current`` + ``c``."""
+    sig = alt.sigmas(noise)
+    p = c.parameters[0].name
+    v, s = alt.values[p], sig[p]
+    if not (np.isfinite(s) and s > 0):
+        excludes = False
+    elif np.isinf(c.off):  # a ring: resolved only if its whole interval is below Nyquist
+        excludes = v + 1.96 * s < nyquist_hz
+    else:
+        excludes = abs(v - c.off) > 1.96 * s
+
+    def free_of_bounds(q: Parameter) -> bool:
+        x, tol = alt.values[q.name], 1e-6 * max(1.0, abs(q.lower), abs(q.upper))
+        return q.lower + tol < x < q.upper - tol
+
+    lo, hi = c.plausible
+    plausible = lo <= v <= hi and all(free_of_bounds(q) for q in c.parameters)
+    try:
+        without = simulate({**alt.values, **_switched_off(c)}, t)
+        imprint = float(np.degrees(np.max(np.abs(alt.model - without))))
+    except CranktrackError:
+        imprint = float("nan")
+    return CandidateScore(c.name, rnd, delta_bic(current, alt, noise), alt.rmse_deg,
+                          {q.name: alt.values[q.name] for q in c.parameters},
+                          {q.name: sig[q.name] for q in c.parameters}, imprint,
+                          bool(excludes), bool(plausible),
+                          bool(imprint > IMPRINT_SIGMAS * noise.sigma_deg))
+
+
+@dataclass(frozen=True)
+class LoopResult:
+    """What the loop found: the base fit, each accepted step, every candidate's score."""
+
+    model: str
+    known: dict[str, float]
+    base: ModelFit
+    final: ModelFit
+    steps: list[ModelFit]
+    scores: list[CandidateScore]
+    not_separable: list[dict]
+    groups: list[dict]
+    diagnosis_before: dict
+    diagnosis_after: dict
+    noise: NoiseModel
+    tracker_sigma_deg: float
+    links: dict = field(default_factory=dict)
+    messages: list[str] = field(default_factory=list)
+    #: The frame-motion check (:func:`.frame_motion.frame_shake`), when the run has
+    #: plane tracks of A and C: a shake θ cannot show.
+    frame_motion: dict | None = None
+
+    @property
+    def shake_accepted(self) -> bool:
+        return bool(self.frame_motion and self.frame_motion["accepted"])
+
+    @property
+    def effects(self) -> list[str]:
+        """Accepted effects in order: θ's, then a shaking frame if found."""
+        return list(self.final.effects) + (["pivot_amp_mm"] if self.shake_accepted else [])
+
+    def to_dict(self) -> dict:
+        spec = MODELS[self.model]
+        units = {**{k: p.unit for k, p in spec.base.items()},
+                 **{p.name: p.unit for c in (*spec.candidates.values(),
+                                             *CAMERA_CANDIDATES.values()) for p in c.parameters}}
+        sig = self.final.sigmas(self.noise)
+        params = {}
+        for k, v in self.final.values.items():
+            entry = {"value": v, "unit": units.get(k, ""), "fixed": k not in sig}
+            if k in sig:
+                entry.update(sigma=sig[k], ci95=[v - 1.96 * sig[k], v + 1.96 * sig[k]])
+            params[k] = entry
+        if self.shake_accepted:
+            fm = self.frame_motion
+            for k, unit, v, sd in (("pivot_amp_mm", "mm", fm["amp_mm"], fm["amp_sigma_mm"]),
+                                   ("pivot_hz", "Hz", fm["hz"], fm["hz_sigma"])):
+                params[k] = {"value": v, "unit": unit, "fixed": False, "sigma": sd,
+                             "ci95": [v - 1.96 * sd, v + 1.96 * sd]}
+        before, after = self.diagnosis_before, self.diagnosis_after
+        unexplained = None
+        # Against the tracker's own σ: the noise model's σ grows with whatever
+        # structure no candidate could fit, and would hide exactly this.
+        level = self.tracker_sigma_deg or self.noise.sigma_deg
+        if after["rmse_deg"] > 1.5 * level and after["ljung_box_p"] < WHITE_P:
+            top = next(iter(after["correlations"].items()), None)
+            unexplained = ("the residual stays structured and matches no candidate"
+                           + (f"; it correlates most with {top[0]} (r = {top[1]:.2f})"
+                              if top else ""))
+            if self.links.get("camera_effect_suspected"):
+                unexplained += "; " + self.links["reading"]
+            if self.effects:
+                unexplained += ("; the accepted effects improve the fit but do not account for "
+                                "it, so they may stand in for something not in the library")
+        return {
+            "model": self.model,
+            "known": self.known,
+            "effects": self.effects,
+            "rmse_before_deg": before["rmse_deg"],
+            "rmse_after_deg": after["rmse_deg"],
+            "max_before_deg": before["max_deg"],
+            "max_after_deg": after["max_deg"],
+            "fit_percent_before": before["fit_percent"],
+            "fit_percent_after": after["fit_percent"],
+            "noise": self.noise.to_dict(),
+            "tracker_sigma_deg": self.tracker_sigma_deg,
+            "residual_white_before": bool(before["ljung_box_p"] >= WHITE_P),
+            "residual_white_after": bool(after["ljung_box_p"] >= WHITE_P),
+            "residual_at_noise_level_after": bool(after["rmse_deg"] <= 1.5 * level),
+            "parameters": params,
+            "steps": [{"effect": s.effects[-1], "rmse_deg": s.rmse_deg} for s in self.steps],
+            "candidates": [s.to_dict() for s in self.scores],
+            "not_separable": self.not_separable,
+            "look_alike_groups": self.groups,
+            "links": self.links,
+            "camera_effect_suspected": bool(self.links.get("camera_effect_suspected", False)),
+            "unexplained": unexplained,
+            "diagnosis_before": before,
+            "diagnosis_after": after,
+            "messages": self.messages,
+            "frame_motion": self.frame_motion,
+        }
+
+
+def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
+               model: str = "spool", context: dict[str, NDArray] | None = None,
+               candidates: dict[str, Candidate] | None = None,
+               view: CameraView | None = None) -> LoopResult:
+    """Fit the base model to measured θ(t), then add effects while the evidence says so.
+
+    Parameters
+    ----------
+    measured : DataFrame
+        A kinematics table: ``t_s``, ``theta_deg`` (per frame, not smoothed),
+        ``theta_deg_sigma`` (or ``theta_deg_sigma_tracker``, preferred: the
+        noise level without the rigid links' widening), ``L3_mm``;
+        ``L1_mm``/``L2_mm`` seed the lengths.
+    known : dict
+        Values the user knows from the rig, held fixed (the model's base names:
+        :data:`SPOOL_BASE`, :data:`DYNAMIC_BASE`).
+    model : str
+        The base model, a key of :data:`MODELS` (``"spool"``, ``"dynamic"``).
+    context : dict, optional
+        Extra series, one value per row of ``measured``, to correlate the
+        residual with (e.g. ``"B image row"``).
+    candidates : dict, optional
+        The effect library (default: the model's own, plus the camera effects
+        :data:`CAMERA_CANDIDATES` when ``view`` is given).
+    view : CameraView, optional
+        The run's image geometry, which the camera candidates need.
+
+    Raises
+    ------
+    CranktrackError
+        Another model, too few frames, or known values no model can meet.
+    """
+    spec = MODELS.get(model)
+    if spec is None:
+        raise CranktrackError(f"the {model!r} model cannot be fitted yet; available: "
+                              f"{', '.join(MODELS)}")
+    known = dict(known or {})
+    if candidates is None:
+        candidates = {**spec.candidates, **(CAMERA_CANDIDATES if view is not None else {})}
+    simulate = with_camera(spec.simulate, view)
+    for col in ("t_s", "theta_deg"):
+        if col not in measured:
+            raise CranktrackError(f"the kinematics table has no {col} column")
+    t_all = measured["t_s"].to_numpy(float)
+    deg_all = measured["theta_deg"].to_numpy(float)
+    ok = np.isfinite(t_all) & np.isfinite(deg_all)
+    if ok.sum() < 12:
+        raise CranktrackError("fewer than 12 frames have a measured crank angle; too few to fit "
+                              "a model and judge its residual")
+    t, deg = t_all[ok], deg_all[ok]
+    theta = np.radians(deg)
+    ctx = {k: np.asarray(v, float)[ok] for k, v in (context or {}).items()}
+    extra, messages = spec.hold(measured, known)
+    held = {**known, **extra}
+    # The tracker's own σ, without the rigid links' widening where the table has it:
+    # a camera effect bends the links, and the loop must not count it as noise.
+    noise_col = next((c for c in ("theta_deg_sigma_tracker", "theta_deg_sigma")
+                      if c in measured), None)
+    sig = measured[noise_col].to_numpy(float)[ok] if noise_col else np.full(t.size, np.nan)
+    tracker_deg = float(np.nanmedian(sig)) if np.isfinite(sig).any() else 0.0
+    fitter = _Fitter(t, theta, simulate, spec, held, candidates,
+                     spec.guesses(t, theta, measured, held))
+    base = fitter.fit((), fitter.guess)
+    if base is None:
+        raise CranktrackError(f"no {model} model with these known values reproduces the "
+                              "measured angles; check the --known values")
+
+    def separable(c: Candidate) -> bool:
+        return not c.needs_known or any(k in known for k in c.needs_known)
+
+    not_separable = [{"name": c.name, "needs": list(c.needs_known), "shows_as": c.shows_as,
+                      "why": f"without {' or '.join(c.needs_known)} known, {c.name} is the same "
+                             "as a change in the base model's own parameters"}
+                     for c in candidates.values() if not separable(c)]
+    tryable = [c for c in candidates.values() if separable(c)]
+    links = measured["L2_mm"].to_numpy(float)[ok] if "L2_mm" in measured else None
+    noise = _judge_noise(fitter, base, tryable, tracker_deg, links)
+    current, steps, scores, groups = _add_effects(fitter, base, tryable, noise)
+    before = diagnose(base, deg, t, ctx)
+    after = diagnose(current, deg, t, ctx)
+    return LoopResult(model, known, base, current, steps, scores, not_separable, groups,
+                      before, after, noise, tracker_deg, link_evidence(measured, tracker_deg),
+                      messages)
+
+
+class _Fitter:
+    """The base model with any set of effects fitted to one run's θ(t) (rad) at times t (s).
+
+    The same request twice (the reference fit is round 1's when there is one
+    candidate) is fitted once.
+    """
+
+    def __init__(self, t: NDArray, theta: NDArray, simulate: Callable, spec: ModelSpec,
+                 held: dict[str, float], candidates: dict[str, Candidate],
+                 guesses: list[dict]) -> None:
+        self.t, self.theta, self.simulate, self.spec = t, theta, simulate, spec
+        self.held, self.candidates = held, candidates
+        self.guesses, self.guess = guesses, guesses[0]
+        span = float(t[-1] - t[0])
+        self.base_free = [replace(p, lower=t[0] - span, upper=t[-1]) if k == "start_s" else p
+                          for k, p in spec.base.items() if k not in held]
+        self.nyquist = 0.5 / float(np.median(np.diff(t)))
+        self._cache: dict[tuple, ModelFit | None] = {}
+
+    def fit(self, effects: tuple[str, ...], start_from: dict[str, float]) -> ModelFit | None:
+        """The model with ``effects`` fitted from ``start_from`` (and the data's guesses)."""
+        key = (tuple(sorted(effects)), tuple(sorted(start_from.items())))
+        if key not in self._cache:
+            self._cache[key] = self._fit(effects, start_from)
+        fit = self._cache[key]
+        return None if fit is None else replace(fit, effects=effects)
+
+    def _fit(self, effects: tuple[str, ...], start_from: dict[str, float]) -> ModelFit | None:
+        free = list(self.base_free)
+        lists = []
+        for name in effects:
+            ps = [replace(p, upper=min(p.upper, 0.9 * self.nyquist)) if p.unit == "Hz" else p
+                  for p in self.candidates[name].parameters]
+            free += ps
+            have = [start_from.get(p.name) for p in ps]
+            lists.append([tuple(have)] if all(h is not None for h in have)
+                         else list(self.candidates[name].starts))
+        # Each effect's starting values in turn (the longest list sets how many).
+        width = max((len(x) for x in lists), default=1)
+        effect_starts = [sum((x[i % len(x)] for x in lists), ()) for i in range(width)]
+        # The base fit tries every guess; an effect's fit starts where the base ended
+        # and from the data's own first guess (a base fit that bent its lengths to
+        # mimic an effect can sit in a valley the effect cannot leave).
+        guess = self.guess
+        origins = (self.guesses if start_from is guess and not effects
+                   else [start_from] if start_from is guess else [start_from, guess])
+        starts = [[o[p.name] for p in self.base_free] + list(es)
+                  for es in effect_starts for o in origins]
+        return _fit(self.t, self.theta, self.simulate, self.held, free, starts, effects,
+                    self.spec.diff_step)
+
+
+def _judge_noise(fitter: _Fitter, base: ModelFit, tryable: list[Candidate],
+                 tracker_deg: float, links: NDArray | None) -> NoiseModel:
+    """The noise every candidate is judged against, with its count of independent frames.
+
+    It is judged on the richest model (the candidates together): its residual is
+    as close to the measurement error as the library can get, so a second effect
+    still in the data does not pass for noise while the first is tried. Only
+    effects that could pass join it: a fit whose drop in RSS is under
+    BIC_THRESHOLD tracker variances cannot (the noise is never below the
+    tracker's σ, nor the evidence more than the frames). It starts where each of
+    them alone ended (round 1 fits them anyway, and the cache keeps them) and from
+    each one's first start; the lowest residual of all these fits is the one judged.
+    """
+    floor2 = np.radians(tracker_deg) ** 2
+    alone, first, fits, joining = {}, {}, [], []
+    for c in tryable:
+        single = fitter.fit((c.name,), base.values)
+        if single is None:
+            continue
+        fits.append(single)
+        if floor2 == 0 or (base.rss - single.rss) / floor2 > BIC_THRESHOLD:
+            joining.append(c.name)
+            first.update(zip((p.name for p in c.parameters), c.starts[0], strict=True))
+            alone.update({p.name: single.values[p.name] for p in c.parameters})
+    if len(joining) > 1:
+        fits += [f for f in (fitter.fit(tuple(joining), {**base.values, **alone}),
+                             fitter.fit(tuple(joining), {**base.values, **first}))
+                 if f is not None]
+    ref = min(fits, key=lambda f: f.rss, default=base)
+    ref = ref if ref.rss < base.rss else base
+    noise = NoiseModel.from_residual(ref.residual, len(ref.free), np.radians(tracker_deg),
+                                     "the base model" if ref is base
+                                     else "the best-fitting candidate model")
+    # How many independent pieces of evidence the frames hold. The crank |AB| is
+    # rigid, so its measured length is the tracker's error seen directly, free of any
+    # model; a rich reference model whitens its residual by absorbing some of that
+    # error, so the more correlated of the two is the honest count.
+    evidence = [ref.residual] + ([links] if links is not None else [])
+    still, segments = still_segments(base.model)
+    return replace(noise, n_eff=independent_frames(evidence, still, segments),
+                   source=noise.source + "; moving frames counted by the lag-1 correlation of "
+                   "that residual and of the |AB| link, each still stretch once")
+
+
+def _add_effects(fitter: _Fitter, base: ModelFit, tryable: list[Candidate], noise: NoiseModel
+                 ) -> tuple[ModelFit, list[ModelFit], list[CandidateScore], list[dict]]:
+    """Rounds of candidates on top of the current model until none passes or the residual
+    is white: (final fit, accepted steps, every score, groups that fit alike)."""
+    current, steps, scores, groups = base, [], [], []
+    for rnd in range(1, len(tryable) + 1):
+        if ljung_box_p(current.residual) >= WHITE_P:
+            break  # nothing structured left to explain
+        tried = []
+        for c in tryable:
+            if c.name in current.effects:
+                continue
+            alt = fitter.fit((*current.effects, c.name), current.values)
+            if alt is not None:
+                tried.append((_score(c, rnd, current, alt, noise, fitter.t, fitter.simulate,
+                                     fitter.nyquist), alt))
+        if not tried:
+            break
+        tried.sort(key=lambda sa: -sa[0].delta_bic)
+        # The best candidate that passes every test; one that fits a little better but
+        # fails one (an imprint under 5σ, a value on a bound) does not block it — it is
+        # named beside it, as is any that fits as well.
+        at = next((i for i, (sc, _) in enumerate(tried) if sc.passes), None)
+        if at is not None:
+            best, alt = tried[at]
+            like = [sc.name for i, (sc, _) in enumerate(tried) if i != at and sc.delta_bic > 0
+                    and (i < at or best.delta_bic - sc.delta_bic < LOOK_ALIKE_BIC)]
+            note = ""
+            if like:
+                note = f"fits as well as {', '.join(like)}"
+                ways = dict.fromkeys(fitter.candidates[n].separated_by
+                                     for n in (best.name, *like))
+                groups.append({"effects": [best.name, *like], "round": rnd,
+                               "separated_by": "; or ".join(w for w in ways if w)
+                               or "a known value or a measurement only one of them changes"})
+            tried[at] = (replace(best, accepted=True, note=note), alt)
+        scores += [sc if sc.accepted or sc.note else replace(sc, note=sc.why_not())
+                   for sc, _ in tried]
+        if at is None:
+            break
+        current = alt
+        steps.append(alt)
+    return current, steps, scores, groups

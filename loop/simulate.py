@@ -1,0 +1,255 @@
+"""θ(t) of each base model with whichever candidate effects a set of values switches on.
+
+Three base models (:data:`MODELS`): ``spool`` (the rigid bed of thesis §2.5.2),
+``dynamic`` (the free response of eq. 3.28) and ``sma`` (the current-heated bed of
+§2.5.3 with the heat model of chapter 4). Each :class:`ModelSpec` says how to
+simulate it, where a fit starts from the data (``guesses``) and what must be held
+for the rest to be identifiable (``hold``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+from scipy.integrate import odeint
+
+from ..errors import CranktrackError
+from ..models.dynamics import COULOMB_SMOOTHING, CrankDynamics
+from ..models.heat import CurrentSteps, SMAWire, simulate_wire
+from ..models.sma_bed import SMABed, lagged, quasi_static_theta
+from ..models.spool import TABLE_2_2, SpoolDrive, spool_motion
+from .candidates import (
+    CANDIDATES,
+    DYNAMIC_BASE,
+    DYNAMIC_CANDIDATES,
+    SMA_BASE,
+    SMA_CANDIDATES,
+    SPOOL_BASE,
+    Candidate,
+    Parameter,
+)
+
+
+def spool_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[np.float64]:
+    """θ (rad) of the spool model with whichever candidate effects ``values`` sets.
+
+    Raises :class:`CranktrackError` when the values give a linkage that cannot close.
+    """
+    v = values
+    start = v["start_s"]
+    # A wrong clock stretches time about the known start, then an offset shifts it.
+    tt = start + v.get("clock_scale", 1.0) * (t_s - start) - v.get("time_offset_s", 0.0)
+    drive = SpoolDrive(L1=v["L1_mm"], L2=v["L2_mm"], L3_0=v["L3_0_mm"],
+                       speed_mm_s=v["speed_mm_s"], start_s=start, stroke_mm=v["stroke_mm"])
+    theta = spool_motion(drive, tt, slack_mm=v.get("slack_mm", 0.0),
+                         growth_per_s=v.get("spool_growth_per_s", 0.0),
+                         ring_hz=v.get("return_spring_hz", 0.0),
+                         ring_zeta=v.get("return_spring_zeta", 0.1), rates=False,
+                         stretch_mm=v.get("wire_stretch_mm", 0.0))[0]
+    if not np.all(np.isfinite(theta)):
+        raise CranktrackError("the linkage does not close for these values")
+    return theta
+
+
+def _spool_guess(t: NDArray, theta: NDArray, measured: pd.DataFrame,
+                 known: dict[str, float]) -> dict[str, float]:
+    """Base values to start from: measured link lengths, the first frames' wire length,
+    the thesis's speed, and the start where θ first clearly leaves its first value."""
+    def median(col: str, default: float) -> float:
+        if col in measured and np.isfinite(measured[col]).any():
+            return float(np.nanmedian(measured[col]))
+        return default
+
+    L3 = measured["L3_mm"].to_numpy(float) if "L3_mm" in measured else np.full(t.size, np.nan)
+    guess = {"L1_mm": median("L1_mm", TABLE_2_2["L1"]), "L2_mm": median("L2_mm", TABLE_2_2["L2"]),
+             "L3_0_mm": float(np.nanmedian(L3[:5])) if np.isfinite(L3[:5]).any()
+             else TABLE_2_2["L3_0"], "speed_mm_s": TABLE_2_2["speed_mm_s"]}
+    guess.update({k: v for k, v in known.items() if k in guess})
+    th0 = np.median(theta[:5])
+    moved = np.flatnonzero(np.abs(theta - th0) > np.radians(0.5))
+    guess["start_s"] = float(t[moved[0]]) - 0.1 if moved.size else float(t[0])
+    stroke = guess["L3_0_mm"] - np.nanmin(L3) if np.isfinite(L3).any() else 10.0
+    guess["stroke_mm"] = float(max(stroke, 0.1))
+    guess.update(known)
+    return guess
+
+
+def dynamic_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[np.float64]:
+    """θ (rad) of the free response (eq. 3.28, unit inertia, ε = 0.05) from t_s[0], with
+    Coulomb friction when ``values`` sets it (LSODA, rtol 1e-9)."""
+    v = values
+    L1, L2 = v["L1_mm"], v["L2_mm"]
+    dyn = CrankDynamics(I=1.0, k_l=v["k_l"], k_s=v["k_s"], k_d=v["k_d"], L1=L1, L2=L2,
+                        theta0=np.radians(v["theta_rest_deg"]),
+                        coulomb=v.get("coulomb_rad_s2", 0.0))
+    k_l, k_s, k_d, th0, L3_0, fc = (dyn.k_l, dyn.k_s, dyn.k_d, dyn.theta0, dyn.L3_0,
+                                    dyn.coulomb)
+    a, b = L1 * L1 + L2 * L2, 2.0 * L1 * L2
+
+    # Plain floats: the integrator calls this thousands of times per fit.
+    def rhs(y: NDArray, _t: float) -> list[float]:
+        th, om = float(y[0]), float(y[1])
+        L3 = math.sqrt(a - b * math.cos(th))
+        wire = k_s * L1 * L2 * math.sin(th) * (1.0 - L3_0 / L3)
+        friction = fc * math.tanh(om / COULOMB_SMOOTHING) if fc else 0.0
+        return [om, k_l * (th0 - th) - k_d * om - wire - friction]
+
+    t = np.asarray(t_s, float)
+    # LSODA (odeint) rather than RK45 here: the same answer, several times faster with a
+    # Python right-hand side, and a fit simulates a thousand times.
+    y, info = odeint(rhs, [np.radians(v["theta_init_deg"]), v["omega_init_rad_s"]], t,
+                     rtol=1e-9, atol=1e-11, full_output=True)
+    if info["message"] != "Integration successful.":
+        raise CranktrackError("the free response could not be integrated for these values")
+    return y[:, 0]
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """A base model the loop can fit: its parameters, simulation, effect library,
+    starting values (``guesses``: data → list of full value sets) and what must be held
+    for the rest to be identifiable (``hold``: data, known → extra values, messages)."""
+
+    name: str
+    base: dict[str, Parameter]
+    simulate: Callable[[dict[str, float], NDArray[np.float64]], NDArray[np.float64]]
+    candidates: dict[str, Candidate]
+    guesses: Callable[[NDArray, NDArray, pd.DataFrame, dict[str, float]], list[dict]]
+    hold: Callable[[pd.DataFrame, dict[str, float]], tuple[dict[str, float], list[str]]]
+    #: Relative step of the fit's finite-difference Jacobian: well above the
+    #: simulation's own error, or the Jacobian is noise.
+    diff_step: float = 1e-7
+
+
+def _measured_median(measured: pd.DataFrame, col: str) -> float | None:
+    if col in measured and np.isfinite(measured[col]).any():
+        return float(np.nanmedian(measured[col]))
+    return None
+
+
+def _spool_hold(measured: pd.DataFrame, known: dict[str, float]
+                ) -> tuple[dict[str, float], list[str]]:
+    if "speed_mm_s" in known or {"L1_mm", "L2_mm", "L3_0_mm"} & set(known):
+        return {}, []
+    # θ(t) is unchanged when every length and the speed scale together: one length must
+    # be held, and the frame |AC| is measured directly.
+    L1 = _measured_median(measured, "L1_mm")
+    if L1 is None:
+        raise CranktrackError("with the speed unknown, give --known L1_mm (one length fixes "
+                              "the scale)")
+    return {"L1_mm": L1}, [f"L1_mm held at the measured |AC| = {L1:.3f} mm: with the speed "
+                           "unknown, one length must fix the scale"]
+
+
+def _spool_guesses(t: NDArray, theta: NDArray, measured: pd.DataFrame,
+                   held: dict[str, float]) -> list[dict]:
+    guess = _spool_guess(t, theta, measured, held)
+    if "start_s" in held:
+        return [guess]
+    span = float(t[-1] - t[0])
+    return [guess] + [{**guess, "start_s": guess["start_s"] + sh}
+                      for sh in (-0.05 * span, 0.05 * span)]
+
+
+def _hold_links(measured: pd.DataFrame, known: dict[str, float], why: str = ""
+                ) -> tuple[dict[str, float], list[str]]:
+    """L1 and L2 held at the measured |AC| and |AB| unless known."""
+    out, notes = {}, []
+    for col, what in (("L1_mm", "|AC|"), ("L2_mm", "|AB|")):
+        if col not in known:
+            value = _measured_median(measured, col)
+            if value is None:
+                raise CranktrackError(f"give --known {col}: the run has no measured {what}")
+            out[col] = value
+            notes.append(f"{col} held at the measured {what} = {value:.3f} mm{why}")
+    return out, notes
+
+
+def _dynamic_hold(measured: pd.DataFrame, known: dict[str, float]
+                  ) -> tuple[dict[str, float], list[str]]:
+    return _hold_links(measured, known, " (the wire stiffness absorbs what a free length "
+                       "would)")
+
+
+def _dynamic_guesses(t: NDArray, theta: NDArray, measured: pd.DataFrame,
+                     held: dict[str, float]) -> list[dict]:
+    """From the swing itself: its first angle and rate, where it settles, its frequency
+    (zero crossings about the settling angle) and its decay."""
+    deg = np.degrees(theta)
+    rest = float(np.median(deg[-max(3, deg.size // 4):]))
+    x = deg - rest
+    crossings = np.flatnonzero(np.sign(x[1:]) != np.sign(x[:-1]))
+    period = 2.0 * float(np.median(np.diff(t[crossings]))) if crossings.size > 2 \
+        else float(t[-1] - t[0])
+    wn = 2.0 * np.pi / max(period, 1e-6)
+    base = {"theta_init_deg": float(deg[0]),
+            "omega_init_rad_s": float((theta[1] - theta[0]) / (t[1] - t[0])),
+            "k_l": wn**2, "k_s": 0.0, "theta_rest_deg": rest, **held}
+    return [{**base, "k_d": 2.0 * zeta * wn} for zeta in (0.05, 0.2)]
+
+
+def sma_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[np.float64]:
+    """θ (rad) of the SMA bed: the heat model on a 5 ms grid (LSODA, rtol 1e-7), ξ through the
+    optional thermal lag, and the crank where the torques balance (damper to first
+    order): within 0.04° of the full equation of motion, a hundred times faster."""
+    v = values
+    dt = v.get("time_offset_s", 0.0)
+    if not v["current_off_s"] > v["current_on_s"]:
+        raise CranktrackError("current_off_s must come after current_on_s")
+    current = CurrentSteps((v["current_on_s"] + dt, v["current_off_s"] + dt),
+                           (v["current_A"], 0.0))
+    wire = SMAWire(h_W_m2K=v["h_W_m2K"], T_amb_C=v["ambient_C"], As_C=v["As_C"],
+                   Af_C=v["Af_C"], Ms_C=v["Ms_C"], Mf_C=v["Mf_C"])
+    bed = SMABed(L1=v["L1_mm"], L2=v["L2_mm"], theta0_deg=v["theta0_deg"],
+                 recovery_strain=v["recovery_strain"], thermal=wire,
+                 thermal_lag_s=v.get("thermal_lag_s", 0.0),
+                 damping_Nms_rad=SMABed.damping_Nms_rad + v.get("damping_Nms_rad", 0.0))
+    t = np.asarray(t_s, float)
+    fine = np.arange(min(0.0, t[0]), t[-1] + 0.01, 0.005)
+    heat = simulate_wire(bed.wire, current, fine, rtol=1e-7, fast=True)
+    xi = lagged(heat.xi, fine, bed.thermal_lag_s)
+    return np.interp(t, fine, quasi_static_theta(bed, xi, fine))
+
+
+def _sma_hold(measured: pd.DataFrame, known: dict[str, float]
+              ) -> tuple[dict[str, float], list[str]]:
+    for name in ("current_A", "current_on_s"):
+        if name not in known:
+            raise CranktrackError(f"the sma model needs --known {name} (what the power supply "
+                                  "did is an input, not something to fit)")
+    out, notes = {}, []
+    if "current_off_s" not in known:
+        out["current_off_s"] = float(np.nanmax(measured["t_s"])) + 1.0
+        notes.append("current_off_s not given: the current stays on to the end of the clip")
+    if "ambient_C" not in known:
+        out["ambient_C"] = SMAWire().T_amb_C
+        notes.append(f"ambient_C held at {out['ambient_C']:g} °C (thesis Table 4.2)")
+    links, link_notes = _hold_links(measured, known)
+    return {**out, **links}, notes + link_notes
+
+
+def _sma_guesses(t: NDArray, theta: NDArray, measured: pd.DataFrame,
+                 held: dict[str, float]) -> list[dict]:
+    w = SMAWire()
+    return [{"theta0_deg": float(np.degrees(np.median(theta[:5]))), "recovery_strain": 0.0325,
+             "h_W_m2K": w.h_W_m2K, "As_C": w.As_C, "Af_C": w.Af_C, "Ms_C": w.Ms_C,
+             "Mf_C": w.Mf_C, **held}]
+
+
+MODELS: dict[str, ModelSpec] = {
+    "spool": ModelSpec("spool", SPOOL_BASE, spool_theta, CANDIDATES, _spool_guesses,
+                       _spool_hold),
+    "dynamic": ModelSpec("dynamic", DYNAMIC_BASE, dynamic_theta, DYNAMIC_CANDIDATES,
+                         _dynamic_guesses, _dynamic_hold, diff_step=1e-4),
+    "sma": ModelSpec("sma", SMA_BASE, sma_theta, SMA_CANDIDATES, _sma_guesses, _sma_hold,
+                     diff_step=1e-3),
+}
+
+#: What ``--known`` takes: each model's base parameters, and the lens's horizontal
+#: field of view, which the tilt candidates need.
+KNOWN_NAMES = {name: (*spec.base, "hfov_deg") for name, spec in MODELS.items()}
