@@ -59,19 +59,10 @@ class RunFolder:
     def fit_dir(self) -> Path:
         return self.path / FIT_DIR
 
-    def has(self, name: str) -> bool:
-        """Whether the file ``name`` (relative to the folder) is there."""
-        return (self.path / name).is_file()
-
-    def read_table(self, name: str, usecols: list[str] | None = None) -> pd.DataFrame | None:
-        """The CSV ``name`` of the folder, or None where the run has not written it."""
-        path = self.path / name
-        return pd.read_csv(path, usecols=usecols) if path.is_file() else None
-
     def read_json(self, name: str) -> dict | None:
         """The JSON file ``name`` of the folder, or None where it is missing or unreadable."""
         try:
-            return json.loads((self.path / name).read_text())
+            return json.loads((self.path / name).read_text(encoding="utf-8"))
         except (OSError, ValueError):
             return None
 

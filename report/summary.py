@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import os
 from pathlib import Path
 
@@ -21,16 +20,10 @@ from ..run_folder import (
     REPORT,
     RUN_INFO,
     TRACKS,
+    RunFolder,
 )
 
 PANELS = (("theta_deg", "θ (deg)"), ("omega_rad_s", "ω (rad/s)"), ("vB_mm_s", "|v_B| (mm/s)"))
-
-
-def _json(path: Path) -> dict | None:
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError):
-        return None
 
 
 def plot_kinematics(kinematics: pd.DataFrame, comparison: pd.DataFrame | None,
@@ -60,11 +53,12 @@ def plot_kinematics(kinematics: pd.DataFrame, comparison: pd.DataFrame | None,
 def write_report(run: str | os.PathLike) -> Path:
     """Write ``run/report.md`` (and ``kinematics.png``) from what the run folder holds."""
     run = Path(run)
-    info = _json(run / RUN_INFO) or {}
+    folder = RunFolder(run)
+    info = folder.read_json(RUN_INFO) or {}
     tracks = pd.read_csv(run / TRACKS)
     kin = pd.read_csv(run / KINEMATICS) if (run / KINEMATICS).exists() else None
     comparison = pd.read_csv(run / COMPARE_TABLE) if (run / COMPARE_TABLE).exists() else None
-    compare = _json(run / COMPARE_FIT)
+    compare = folder.read_json(COMPARE_FIT)
     src = info.get("source", {})
     lines = [f"# Run report: {Path(src.get('path', '?')).name}", ""]
     lines += [f"- source: `{src.get('path', '?')}` ({src.get('codec', '?')}, "
@@ -116,7 +110,7 @@ def write_report(run: str | os.PathLike) -> Path:
                          f"{e['max_abs']:.4g} {e['unit']} | {e['fit_pct']:.2f} |")
         figs = sorted(run.glob("fig_*.png"))
         lines += [""] + [f"![{f.stem}]({f.name})" for f in figs]
-    fit = _json(run / FIT_DIR / FIT_REPORT_JSON)
+    fit = folder.read_json(f"{FIT_DIR}/{FIT_REPORT_JSON}")
     if fit:
         effects = ", ".join(fit["effects"]) or "none"
         lines += ["", f"## Closing the loop ({fit['model']} model)", "",
