@@ -28,7 +28,7 @@ demo: $(VENV)/.installed-run
 
 test: $(VENV)/.installed-test
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto --dist worksteal
 
 # The tests marked slow (closed-loop fits of the SMA model on renders), not in `make test`.
 test-slow: $(VENV)/.installed-test

@@ -14,6 +14,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -28,13 +29,6 @@ from .calibration.plane import (
 from .errors import CranktrackError
 from .files import ensure_dir, write_csv_atomic, write_json_atomic, write_text_atomic
 from .kinematics.measured import LINK_JUMP_SIGMA, LINK_WANDER, measure_kinematics
-from .loop.camera_view import CameraView
-from .loop.compare import Comparison, compare_spool
-from .loop.frame_motion import frame_shake
-from .loop.search import LoopResult, close_loop
-from .report.fit import write_fit_report
-from .report.plots import plot_comparison
-from .report.summary import write_report
 from .run_folder import (
     CALIBRATION,
     COMPARE_FIT,
@@ -54,6 +48,11 @@ from .tracker.gaps import fill_gaps
 from .tracker.markers import DEFAULT_MARKERS, MarkerSpec
 from .tracker.track import TrackerState, TrackingInterrupted, track, tracks_table
 from .tracker.video import open_frames
+
+if TYPE_CHECKING:
+    from .loop.camera_view import CameraView
+    from .loop.compare import Comparison
+    from .loop.search import LoopResult
 
 RUN_SCHEMA = 1
 
@@ -216,6 +215,8 @@ def track_run(
         run_info["kinematics"] = info.to_dict()
         run_info["warnings"] = warnings
         files["run"] = write_json_atomic(folder / RUN_INFO, run_info)
+    from .report.summary import write_report  # matplotlib: loaded once the video is read
+
     files["report"] = write_report(folder)
     return RunResult(folder, tracks, kinematics, cal, files, warnings)
 
@@ -247,6 +248,8 @@ def camera_view(run: Path, tracks: pd.DataFrame | None = None,
     """The run's image geometry for the camera candidates: its calibration, the image size
     and where A and C sit (medians of the tracks); None if the run lacks any of them.
     ``tracks`` and ``info`` (``run.json``) are read from the folder unless given."""
+    from .loop.camera_view import CameraView
+
     folder = run_folder(run)
     try:
         cal = load_calibration(folder / CALIBRATION)
@@ -273,6 +276,13 @@ def fit_run(run: Path, model: str, known: dict[str, float]) -> tuple[LoopResult,
 
     The tracks and ``run.json`` are read once, for the camera candidates' image
     geometry and the frame-motion check."""
+    # The loop's and the report's libraries (scipy.optimize, statsmodels, matplotlib) are
+    # imported here, not at the top: `track` starts on the first frame without them.
+    from .loop.frame_motion import frame_shake
+    from .loop.search import close_loop
+    from .report.fit import write_fit_report
+    from .report.summary import write_report
+
     folder = run_folder(run)
     measured = folder.read_kinematics()
     try:
@@ -302,6 +312,10 @@ def compare_run(run: Path, fixed: dict[str, float]) -> tuple[Comparison, list[Pa
     ``compare.json`` (fitted parameters ± 1σ, fixed ones, error figures),
     ``compare.md`` and the figures; returns the comparison and the paths.
     """
+    from .loop.compare import compare_spool
+    from .report.plots import plot_comparison
+    from .report.summary import write_report
+
     measured = read_kinematics(run)
     result = compare_spool(measured, fixed)
     report = {**result.fit.to_dict(), "errors": result.summary.to_dict(orient="records")}

@@ -67,7 +67,7 @@ def load_camera(path: str | os.PathLike) -> CameraCalibration:
             raise CranktrackError(f"{p} holds no camera intrinsics; make them with "
                                   "`cranktrack calibrate camera`")
         return CameraCalibration.from_dict(d)
-    except (KeyError, IndexError, TypeError, ValueError) as e:
+    except (KeyError, IndexError, TypeError, ValueError, OverflowError) as e:
         raise CranktrackError(f"calibration file {p} is missing or has a bad field ({e})") from None
 
 
@@ -99,7 +99,8 @@ def load_calibration(path: str | os.PathLike,
                       else None)
         cal = PlaneCalibration(str(data["method"]), H, size, camera,
                                dict(data.get("quality", {})), tuple(data.get("warnings", ())))
-    except (KeyError, IndexError, TypeError, ValueError) as e:
+    except (KeyError, IndexError, TypeError, ValueError, OverflowError) as e:
+        # OverflowError: an image size of Infinity (json writes it for inf) cannot be an int.
         raise CranktrackError(f"calibration file {p} is missing or has a bad field ({e})") from None
     _check_size(p, size, image_size)
     return cal

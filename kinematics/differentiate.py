@@ -27,7 +27,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.stats import chi2
 
 from ..tracker.gaps import segments
 
@@ -130,6 +129,8 @@ def local_polynomial(
         centred = np.clip(idx - half, 0, n - window)
         C, rss, self_w, rows = _fits(t, yv, a, n, centred, window, order, scale)
         if adaptive and n > window:
+            from scipy.stats import chi2  # 0.6 s to import: not before the first frame
+
             # Noise level from the typical centred residual (robust to the few kinks).
             noise_var = float(np.median(rss)) / dof / (chi2.ppf(0.5, dof) / dof)
             limit = noise_var * chi2.ppf(0.999, dof)

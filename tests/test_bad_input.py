@@ -79,7 +79,8 @@ def test_disk_full_is_one_sentence_and_earlier_files_stay(small_h264, tmp_path, 
     assert not list((tmp_path / "run").glob(".*partial"))
 
 
-@pytest.mark.parametrize("content", ["", "{", '{"schema": 2, "kind": "plane"}', "[1, 2]"])
+@pytest.mark.parametrize("content", ["", "{", '{"schema": 2, "kind": "plane"}', "[1, 2]",
+                                     '{"schema": 1, "image_size": [Infinity, 480]}'])
 def test_bad_calibration_files(small_h264, tmp_path, content):
     cal = tmp_path / "cal.json"
     cal.write_text(content)
