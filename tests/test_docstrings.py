@@ -8,6 +8,7 @@ import pytest
 MODULES = [
     "cranktrack.models.crank_slider",
     "cranktrack.kinematics.differentiate",
+    "cranktrack.tracker.track",
 ]
 
 

@@ -11,13 +11,14 @@ Every found blob is refined to a sub-pixel centre with a 1-σ
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from ..errors import CranktrackError
 from ..tables import tracker_columns
 from .markers import (
     DEFAULT_MARKERS,
@@ -281,6 +282,11 @@ class TrackerState:
     balance: dict
     rows: list[list]
 
+    @classmethod
+    def start(cls, specs: Sequence[MarkerSpec] = DEFAULT_MARKERS) -> TrackerState:
+        """The state before the first frame: nothing learned yet."""
+        return cls([_MarkerState(spec) for spec in specs], {"gains": None}, [])
+
     @property
     def last_frame(self) -> int:
         """Index of the last finished frame (−1 before the first)."""
@@ -293,6 +299,78 @@ class TrackingInterrupted(KeyboardInterrupt):
     def __init__(self, state: TrackerState) -> None:
         super().__init__("tracking interrupted")
         self.state = state
+
+
+def _locate_markers(frame: Frame, state: TrackerState) -> list:
+    """Each marker's ``x, y, σ, ok, status`` in one frame, in the tracks table's order.
+
+    Updates ``state``: what each marker has learned, and its last two fixes."""
+    values: list = []
+    hsv_cache: dict = state.balance.copy()
+    for st in state.markers:
+        centre, status = _locate(frame, st, frame.t_s, hsv_cache)
+        state.balance["gains"] = hsv_cache.get("gains")
+        if centre is None:
+            values += [np.nan, np.nan, np.nan, False, status]
+            st.history = []  # a lost marker is searched for afresh
+        else:
+            st.history = [*st.history[-1:], (frame.t_s, centre.x, centre.y)]
+            values += [centre.x, centre.y, centre.sigma, True, status]
+    return values
+
+
+def locate(frame: Frame | NDArray[np.uint8], markers: Sequence[MarkerSpec] = DEFAULT_MARKERS,
+           state: TrackerState | None = None, t_s: float = 0.0) -> pd.DataFrame:
+    """Find each marker in one frame: the per-frame step of :func:`track`.
+
+    Parameters
+    ----------
+    frame : ndarray or Frame
+        An RGB image (h, w, 3) of uint8, or a decoded :class:`.video.Frame`.
+    markers : sequence of MarkerSpec
+        What to look for (default A green, B red, C blue); ignored when
+        ``state`` is given, which already holds them.
+    state : TrackerState, optional
+        Carried from frame to frame (``TrackerState.start(markers)``) so that
+        each marker is followed from where it was, with the colour and size
+        it showed; without it every call is a fresh full-frame search.
+    t_s : float
+        The frame's time, s, for the motion prediction (a Frame's own time
+        is used for a Frame).
+
+    Returns
+    -------
+    DataFrame
+        One row per marker: ``marker``, ``x_px``, ``y_px`` (pixel centres
+        at integer coordinates), ``sigma_px`` (per-axis 1-σ, px), ``ok`` and
+        ``status`` (a key of :data:`STATUSES`).
+
+    Examples
+    --------
+    A red disc of radius 6 px drawn at (70.3, 50.6) with its edge pixels
+    partly covered, as a camera would see it:
+
+    >>> import numpy as np
+    >>> from cranktrack.tracker.markers import MarkerSpec
+    >>> s = 8  # sub-samples per pixel side
+    >>> y, x = (np.mgrid[0:120 * s, 0:160 * s] + 0.5) / s - 0.5
+    >>> disc = ((x - 70.3) ** 2 + (y - 50.6) ** 2 < 36).reshape(120, s, 160, s).mean((1, 3))
+    >>> rgb = 230 * (1 - disc[..., None]) + np.array([220, 30, 30]) * disc[..., None]
+    >>> found = locate(rgb.round().astype(np.uint8), [MarkerSpec("B", hue_deg=0)])
+    >>> found[["marker", "x_px", "y_px", "status"]].round(2)
+      marker  x_px  y_px status
+    0      B  70.3  50.6     ok
+    """
+    if not isinstance(frame, Frame):
+        rgb = np.asarray(frame)
+        if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype != np.uint8:
+            raise CranktrackError(f"locate needs an RGB image of shape (h, w, 3) and dtype "
+                                  f"uint8, not {rgb.shape} {rgb.dtype}")
+        frame = Frame(0, float(t_s), np.ascontiguousarray(rgb))
+    state = state or TrackerState.start(tuple(markers))
+    values = _locate_markers(frame, state)
+    rows = [(st.spec.name, *values[5 * i:5 * i + 5]) for i, st in enumerate(state.markers)]
+    return pd.DataFrame(rows, columns=["marker", "x_px", "y_px", "sigma_px", "ok", "status"])
 
 
 def tracks_table(rows: list[list], specs: tuple[MarkerSpec, ...]) -> pd.DataFrame:
@@ -330,26 +408,13 @@ def track(
     CranktrackError
         No frame could be decoded.
     """
-    from ..errors import CranktrackError
-
-    state = resume or TrackerState([_MarkerState(spec) for spec in specs], {"gains": None}, [])
+    state = resume or TrackerState.start(specs)
     done = state.last_frame
     try:
         for frame in source.frames(prefetch=8):
             if frame.index <= done:
                 continue
-            row: list = [frame.index, frame.t_s]
-            hsv_cache: dict = state.balance.copy()
-            for st in state.markers:
-                centre, status = _locate(frame, st, frame.t_s, hsv_cache)
-                state.balance["gains"] = hsv_cache.get("gains")
-                if centre is None:
-                    row += [np.nan, np.nan, np.nan, False, status]
-                    st.history = []  # a lost marker is searched for afresh
-                else:
-                    st.history = [*st.history[-1:], (frame.t_s, centre.x, centre.y)]
-                    row += [centre.x, centre.y, centre.sigma, True, status]
-            state.rows.append(row)
+            state.rows.append([frame.index, frame.t_s, *_locate_markers(frame, state)])
             if on_frame:
                 on_frame(frame.index)
             if checkpoint and len(state.rows) % checkpoint_every == 0:
