@@ -378,10 +378,11 @@ def cmd_demo(args: argparse.Namespace) -> int:
           "start and stop, where ω steps)")
     from .pipeline import compare_run
 
-    fitted, plots = compare_run(run.folder, {"L1": d.L1, "L2": d.L2, "speed_mm_s": d.speed_mm_s})
+    fitted, plots = compare_run(run.folder, {"L1_mm": d.L1, "L2_mm": d.L2,
+                                             "speed_mm_s": d.speed_mm_s})
     plots.append(_record(run.folder, spawn=False))
     print()
-    print("Spool model fitted to the measured θ(t) (start time, stroke and L3_0 free): "
+    print("Spool model fitted to the measured θ(t) (start time, stroke and L3_0_mm free): "
           + ", ".join(f"{k} = {v:.5g} ± {sd:.2g}" for k, (v, sd) in fitted.fit.fitted.items()))
     _print_comparison(fitted)
     from .pipeline import fit_run
@@ -420,11 +421,10 @@ def _print_comparison(result) -> None:
 def cmd_compare(args: argparse.Namespace) -> int:
     from .pipeline import compare_run
 
-    fixed = {k: v for k, v in (("L1", args.L1), ("L2", args.L2), ("L3_0", args.L3_0),
-                               ("stroke_mm", args.stroke_mm)) if v is not None}
+    known = parse_known(args.known, "spool")
     if not args.fit_speed:
-        fixed["speed_mm_s"] = args.speed_mm_s
-    result, files = compare_run(Path(args.run), fixed)
+        known.setdefault("speed_mm_s", args.speed_mm_s)
+    result, files = compare_run(Path(args.run), known)
     for m in result.fit.messages:
         print(f"note: {m}")
     print("fitted: " + ", ".join(f"{k} = {v:.5g} ± {sd:.2g}"
@@ -815,13 +815,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("run", help="run folder written by `cranktrack track`")
     p.add_argument("--model", choices=["spool"], default="spool",
                    help="the model to fit (spool: thesis §2.5.2)")
-    p.add_argument("--L1", type=_positive, help="frame length A–C, mm (fitted if omitted)")
-    p.add_argument("--L2", type=_positive, help="crank length A–B, mm (fitted if omitted)")
-    p.add_argument("--L3-0", dest="L3_0", type=_positive,
-                   help="initial wire length B–C, mm (fitted if omitted)")
-    p.add_argument("--stroke-mm", type=_positive, help="wire wound in, mm (fitted if omitted)")
+    p.add_argument("--known", action="append", default=[], metavar="NAME=VALUE",
+                   help="a value known from the rig, held fixed; the names `fit --known` "
+                        "takes: L1_mm, L2_mm, L3_0_mm, stroke_mm, start_s, speed_mm_s "
+                        "(repeatable; the others are fitted)")
     p.add_argument("--speed-mm-s", type=_positive, default=14.0,
-                   help="spool speed, mm/s, held fixed (14.0, Table 2.2)")
+                   help="spool speed, mm/s, held fixed unless --known sets it (14.0, "
+                        "Table 2.2)")
     p.add_argument("--fit-speed", action="store_true",
                    help="fit the speed too (then L1 is held at its measured value)")
     p.set_defaults(func=cmd_compare)

@@ -305,7 +305,7 @@ def fit_run(run: Path, model: str, known: dict[str, float]) -> tuple[LoopResult,
     return result, files
 
 
-def compare_run(run: Path, fixed: dict[str, float]) -> tuple[Comparison, list[Path]]:
+def compare_run(run: Path, known: dict[str, float]) -> tuple[Comparison, list[Path]]:
     """Fit the spool model to ``run/kinematics.csv`` and write the comparison.
 
     Writes ``compare.csv`` (measured, σ, model and error side by side),
@@ -317,7 +317,7 @@ def compare_run(run: Path, fixed: dict[str, float]) -> tuple[Comparison, list[Pa
     from .report.summary import write_report
 
     measured = read_kinematics(run)
-    result = compare_spool(measured, fixed)
+    result = compare_spool(measured, known)
     report = {**result.fit.to_dict(), "errors": result.summary.to_dict(orient="records")}
     files = [write_csv_atomic(run / COMPARE_TABLE, result.table),
              write_json_atomic(run / COMPARE_FIT, report)]
@@ -347,7 +347,7 @@ def record_run(run: Path, spawn: bool = False, path: Path | None = None) -> Path
     through the run's own calibration.
     """
     from .calibration.file import load_calibration
-    from .models.spool import SpoolDrive
+    from .loop.simulate import spool_drive
     from .report.recording import write_recording
 
     run = Path(run)
@@ -366,7 +366,7 @@ def record_run(run: Path, spawn: bool = False, path: Path | None = None) -> Path
         comparison = pd.read_csv(run / COMPARE_TABLE)
         report = json.loads((run / COMPARE_FIT).read_text())
         params = {k: v["value"] for k, v in {**report["fixed"], **report["fitted"]}.items()}
-        drive = SpoolDrive(**params)
+        drive = spool_drive(params)
         theta, L1, L2 = drive.bed.theta(drive.slider(t).L3), drive.L1, drive.L2
     fit = pd.read_csv(run / FIT_DIR / FIT_TABLE) if (run / FIT_DIR / FIT_TABLE).exists() else None
     if fit is not None and (run / FIT_DIR / FIT_REPORT_JSON).exists():

@@ -43,7 +43,7 @@ def jobs(out: Path) -> list[list[str]]:
         ["demo", "--out", f"{o}/demo"],
         ["synth", "spool", "--out", f"{o}/eff", *SMALL, "--effect", "slack_mm=0.8"],
         ["track", f"{o}/eff/video.mp4", "--out", f"{o}/eff/run", "--known-length", "A-C=160.8"],
-        ["compare", f"{o}/eff/run", "--L1", "160.8"],
+        ["compare", f"{o}/eff/run", "--known", "L1_mm=160.8"],
         ["fit", f"{o}/eff/run", "--known", "L1_mm=160.8", "--known", "L2_mm=72.4"],
         ["synth", "free", "--out", f"{o}/free", *SMALL],
         ["track", f"{o}/free/video.mp4", "--out", f"{o}/free/run", "--known-length",

@@ -35,6 +35,13 @@ from .candidates import (
 )
 
 
+def spool_drive(values: dict[str, float]) -> SpoolDrive:
+    """The spool drive that the base values name (:data:`.candidates.SPOOL_BASE`)."""
+    return SpoolDrive(L1=values["L1_mm"], L2=values["L2_mm"], L3_0=values["L3_0_mm"],
+                      speed_mm_s=values["speed_mm_s"], start_s=values["start_s"],
+                      stroke_mm=values["stroke_mm"])
+
+
 def spool_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[np.float64]:
     """θ (rad) of the spool model with whichever candidate effects ``values`` sets.
 
@@ -44,9 +51,7 @@ def spool_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[n
     start = v["start_s"]
     # A wrong clock stretches time about the known start, then an offset shifts it.
     tt = start + v.get("clock_scale", 1.0) * (t_s - start) - v.get("time_offset_s", 0.0)
-    drive = SpoolDrive(L1=v["L1_mm"], L2=v["L2_mm"], L3_0=v["L3_0_mm"],
-                       speed_mm_s=v["speed_mm_s"], start_s=start, stroke_mm=v["stroke_mm"])
-    theta = spool_motion(drive, tt, slack_mm=v.get("slack_mm", 0.0),
+    theta = spool_motion(spool_drive(v), tt, slack_mm=v.get("slack_mm", 0.0),
                          growth_per_s=v.get("spool_growth_per_s", 0.0),
                          ring_hz=v.get("return_spring_hz", 0.0),
                          ring_zeta=v.get("return_spring_zeta", 0.1), rates=False,

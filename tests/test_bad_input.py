@@ -96,7 +96,7 @@ def test_compare_on_nan_only_kinematics(tmp_path):
                                                                 index=False)
     p = _run("compare", str(tmp_path))
     assert p.returncode == 1 and "Traceback" not in p.stderr
-    assert "fewer than 5 frames" in p.stderr
+    assert "fewer than 12 frames" in p.stderr
 
 
 def test_ctrl_c_keeps_valid_tracks_and_resume_equals_an_uninterrupted_run(small_h264,

@@ -153,12 +153,12 @@ def test_rigid_link_glitch_is_flagged(run640):
 
 def test_compare_recovers_the_render_parameters(run640):
     run, _ = run640
-    result = compare_spool(run.kinematics, {"L1": 160.8, "L2": 72.4, "speed_mm_s": 14.0})
+    result = compare_spool(run.kinematics, {"L1_mm": 160.8, "L2_mm": 72.4, "speed_mm_s": 14.0})
     fitted = result.fit.fitted
     # The render: start 0.5 s, stroke 15 mm, L3_0 105.4 mm (Table 2.2).
     assert fitted["start_s"][0] == pytest.approx(0.5, abs=0.005)
     assert fitted["stroke_mm"][0] == pytest.approx(15.0, abs=0.05)
-    assert fitted["L3_0"][0] == pytest.approx(105.4, abs=0.05)
+    assert fitted["L3_0_mm"][0] == pytest.approx(105.4, abs=0.05)
     for name, (_, sd) in fitted.items():
         assert np.isfinite(sd) and sd > 0, name
     s = result.summary.set_index("quantity")
@@ -168,7 +168,7 @@ def test_compare_recovers_the_render_parameters(run640):
 def test_compare_with_free_speed_holds_the_scale(run640):
     run, _ = run640
     fit = compare_spool(run.kinematics, {}).fit
-    assert "L1" in fit.fixed and fit.messages
+    assert "L1_mm" in fit.fixed and fit.messages
     speed, sd = fit.fitted["speed_mm_s"]
     assert abs(speed - 14.0) < 3 * sd and sd < 0.5  # the render's 14 mm/s, within its 3σ
 
@@ -183,12 +183,13 @@ def test_compare_cli_writes_table_report_and_figures(run640, capsys):
     from cranktrack.cli import main
 
     run, _ = run640
-    assert main(["compare", str(run.folder), "--L1", "160.8", "--L2", "72.4"]) == 0
+    assert main(["compare", str(run.folder), "--known", "L1_mm=160.8",
+                 "--known", "L2_mm=72.4"]) == 0
     for name in ("compare.csv", "compare.json", "compare.md", "fig_2_34_vB_xy.png",
                  "fig_2_35_vB_mag_dir.png", "fig_2_36_omega.png"):
         assert (run.folder / name).exists(), name
     report = json.loads((run.folder / "compare.json").read_text())
-    assert {"start_s", "stroke_mm", "L3_0"} == set(report["fitted"])
+    assert {"start_s", "stroke_mm", "L3_0_mm"} == set(report["fitted"])
     assert "theta_deg" in capsys.readouterr().out
 
 

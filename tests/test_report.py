@@ -41,7 +41,7 @@ def test_recording_is_small_because_the_video_is_referenced(run, small_h264):
 
 
 def test_view_after_compare_overlays_the_model(run):
-    assert main(["compare", str(run), "--L1", "160.8", "--L2", "72.4"]) == 0
+    assert main(["compare", str(run), "--known", "L1_mm=160.8", "--known", "L2_mm=72.4"]) == 0
     assert main(["view", str(run)]) == 0
     entities = read_entities(run / "run.rrd")
     assert entities["/video/model/B"]["rows"] == len(pd.read_csv(run / "tracks.csv"))
