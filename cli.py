@@ -562,103 +562,25 @@ def cmd_calibrate_plane(args: argparse.Namespace) -> int:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    import numpy as np
-    import pandas as pd
+    from .report.sweep import actuator_curve_sweep, linkage_sweep, max_work_sweep
 
-    from .files import ensure_dir, write_csv_atomic
-    from .models.maps import (
-        CONTRACTION,
-        actuator_map,
-        default_grid,
-        force_actuator,
-        rocking_angle_map,
-    )
-    from .report.plots import plot_map
-
-    if args.n < 2:
-        raise CranktrackError(f"--n must be at least 2, not {args.n}")
-    if args.metric in ("actuator-curve", "max-work"):
-        return _sweep_material(args)
-    if args.actuator == "rigid" and args.metric != "rocking-angle":
-        raise CranktrackError(f"the rigid actuator has no force curve, so no {args.metric} "
-                              "map; use --actuator linear, sma or muscle")
-    out = ensure_dir(args.out)
-    ratio, theta0 = default_grid(args.n)
-    R, T = np.meshgrid(ratio, theta0)
-    table = pd.DataFrame({"L1_over_L2": R.ravel(), "theta0_deg": T.ravel()})
-    if args.actuator == "rigid":
-        m = rocking_angle_map(ratio, theta0, CONTRACTION["rigid"])
-        table["rocking_deg"] = m.rocking_deg.ravel()
-        best, stroke = m.optimum(), CONTRACTION["rigid"]
-        z = m.rocking_deg
-    else:
-        stroke, force = force_actuator(args.actuator)
-        m = actuator_map(ratio, theta0, stroke, force)
-        for col in ("rocking_deg", "torque_Nm", "work_J"):
-            table[col] = getattr(m, col).ravel()
-        field = {"rocking-angle": "rocking_deg", "torque": "torque_Nm", "work": "work_J"}
-        z = getattr(m, field[args.metric])
-        best = m.optimum(field[args.metric])
-    table["incompatibility"] = m.reason.ravel()
-    name = f"{args.metric.replace('-', '_')}_{args.actuator}"
-    csv = write_csv_atomic(out / f"{name}.csv", table)
-    what, unit = {"rocking-angle": ("Rocking angle", "deg"), "torque": ("Peak torque", "N·m"),
-                  "work": ("Work", "J")}[args.metric]
-    png = plot_map(ratio, theta0, z, out / f"{name}.png",
-                   f"{what}, {args.actuator} actuator ({100 * stroke:.2f} % stroke)",
-                   f"{what.lower()} ({unit})", best)
-    print(f"max {what.lower()} {best[0]:.1f} {unit} at L1/L2 = {best[1]:.2f}, "
-          f"θ0 = {best[2]:.1f}° (cf. thesis Table 2.6; crank L2 = 1 m)")
-    print(f"wrote {csv} and {png}")
-    return 0
-
-
-def _sweep_material(args: argparse.Namespace) -> int:
-    """The SMA wire itself (§2.3): its actuator curve, or work over start/final temperature."""
-    import numpy as np
-    import pandas as pd
-
-    from .files import ensure_dir, write_csv_atomic
-    from .models.sma_material import T_HOT_C, actuator_curve, max_work_map
-    from .report.plots import plot_actuator_curves, plot_map
-
-    out = ensure_dir(args.out)
     if args.metric == "actuator-curve":
-        c = actuator_curve()
-        lin = c.linearised()
-        table = pd.DataFrame({"stroke_pct": c.stroke_pct, "force_N": c.force_N,
-                              "linear_force_N": lin.force_N, "spring_MPa_per_pct": c.spring})
-        csv = write_csv_atomic(out / "actuator_curve.csv", table)
-        png = plot_actuator_curves({"SMA wire (eqs. 2.6–2.9)": (c.stroke_pct, c.force_N),
-                                    "linearised": (lin.stroke_pct, lin.force_N)},
-                                   out / "actuator_curve.png",
-                                   f"Actuator curve, 250 µm wire heated to {T_HOT_C:.0f} °C")
-        print(f"blocked force {c.blocked_N:.1f} N, free stroke {c.free_pct:.2f} %; work "
-              f"{c.work_J_per_m():.3f} J per metre of wire ({lin.work_J_per_m():.3f} "
+        sweep, c = actuator_curve_sweep(args.out)
+        print(f"blocked force {c['blocked_N']:.1f} N, free stroke {c['free_pct']:.2f} %; work "
+              f"{c['work_J_per_m']:.3f} J per metre of wire ({c['linear_work_J_per_m']:.3f} "
               "linearised)")
-        print(f"wrote {csv} and {png}")
-        return 0
-    T = np.linspace(25.0, 70.0, args.n)
-    method = "analytic" if args.envelope == "linear" else "trapezoid"
-    m = max_work_map(T, T, args.envelope, method)
-    Ti, Tf = np.meshgrid(m.Ti_C, m.Tf_C, indexing="ij")
-    table = pd.DataFrame({"Ti_C": Ti.ravel(), "Tf_C": Tf.ravel(),
-                          "work_MJ_m3": m.work_MJ_m3.ravel(),
-                          "work_per_K_MJ_m3K": m.per_kelvin.ravel()})
-    name = f"max_work_{args.envelope}"
-    csv = write_csv_atomic(out / f"{name}.csv", table)
-    axes = ("final temperature T_f (°C)", "start temperature T_i (°C)")
-    pngs = []
-    for z, best, what, unit, suffix in (
-            (m.work_MJ_m3, m.optimum(), "Work", "MJ/m³", ""),
-            (m.per_kelvin, m.optimum_per_kelvin(), "Work per degree", "MJ/(m³·K)", "_per_K")):
-        # plot_map wants (value, x, y): x is T_f (columns), y is T_i (rows).
-        pngs.append(plot_map(m.Tf_C, m.Ti_C, z, out / f"{name}{suffix}.png",
-                             f"{what}, {args.envelope} envelope", f"{what.lower()} ({unit})",
-                             (best[0], best[2], best[1]), axes, "white: T_f ≤ T_i"))
-        print(f"max {what.lower()} {best[0]:.3f} {unit} at T_i = {best[1]:.1f} °C, "
-              f"T_f = {best[2]:.1f} °C")
-    print(f"wrote {csv}, {pngs[0]} and {pngs[1]}")
+    elif args.metric == "max-work":
+        sweep = max_work_sweep(args.out, args.envelope, args.n)
+        for o in sweep.optima:
+            print(f"max {o.what.lower()} {o.value:.3f} {o.unit} at T_i = {o.at['T_i (°C)']:.1f} "
+                  f"°C, T_f = {o.at['T_f (°C)']:.1f} °C")
+    else:
+        sweep = linkage_sweep(args.out, args.metric, args.actuator, args.n)
+        o = sweep.optima[0]
+        print(f"max {o.what.lower()} {o.value:.1f} {o.unit} at L1/L2 = {o.at['L1/L2']:.2f}, "
+              f"θ0 = {o.at['θ0 (deg)']:.1f}° (cf. thesis Table 2.6; crank L2 = 1 m)")
+    *first, last = sweep.files
+    print(f"wrote {', '.join(map(str, first))} and {last}")
     return 0
 
 
