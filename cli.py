@@ -344,7 +344,7 @@ def _format_table(rows: list[list[str]]) -> str:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from .loop.compare import error_summary, spool_model
+    from .loop.compare import errors_against_drive, spool_model
 
     out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="cranktrack-demo-"))
     scenario = _spool_scenario(args)
@@ -358,16 +358,12 @@ def cmd_demo(args: argparse.Namespace) -> int:
     run = _track(args, files.video, out / "run")
     _print_warnings(run.warnings)
     measured = run.kinematics
-    model = spool_model(d, measured["t_s"].to_numpy())
-    t = measured["t_s"].to_numpy()
-    margin = 2.5 / args.fps  # two frames either side
-    away = (np.abs(t - d.start_s) > margin) & (np.abs(t - d.stop_s) > margin)
+    errors = errors_against_drive(measured, d, margin_s=2.5 / args.fps)  # 2 frames each side
     rows = [["quantity", "frames", "RMS error", "max error", "RMS % of peak"]]
-    for label, mask in (("all frames", None), ("away from start/stop", away)):
-        summary = error_summary(measured, model, mask=mask)
-        for r in summary.itertuples():
-            rows.append([f"{r.quantity} ({label})", str(r.frames), f"{r.rms:.4g} {r.unit}",
-                         f"{r.max_abs:.4g} {r.unit}", f"{r.rms_pct_of_peak:.2f}"])
+    for r in errors.itertuples():
+        rows.append([f"{r.quantity} ({r.rows})", str(r.frames), f"{r.rms:.4g} {r.unit}",
+                     f"{r.max_abs:.4g} {r.unit}", f"{r.rms_pct_of_peak:.2f}"])
+    model = spool_model(d, measured["t_s"].to_numpy())
     rocking_meas = np.nanmax(measured["theta_deg"]) - np.nanmin(measured["theta_deg"])
     rocking_model = np.nanmax(model["theta_deg"]) - np.nanmin(model["theta_deg"])
     print()

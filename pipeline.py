@@ -313,6 +313,7 @@ def compare_run(run: Path, known: dict[str, float]) -> tuple[Comparison, list[Pa
     ``compare.md`` and the figures; returns the comparison and the paths.
     """
     from .loop.compare import compare_spool
+    from .report.compare import compare_markdown
     from .report.plots import plot_comparison
     from .report.summary import write_report
 
@@ -322,19 +323,8 @@ def compare_run(run: Path, known: dict[str, float]) -> tuple[Comparison, list[Pa
     files = [write_csv_atomic(run / COMPARE_TABLE, result.table),
              write_json_atomic(run / COMPARE_FIT, report)]
     figures = plot_comparison(result.table, run)
-    lines = ["# Measured vs spool model", "", "| parameter | value | 1σ | unit |",
-             "|---|---|---|---|"]
-    for k, v in report["fitted"].items():
-        lines.append(f"| {k} (fitted) | {v['value']:.5g} | {v['sigma']:.2g} | {v['unit']} |")
-    for k, v in report["fixed"].items():
-        lines.append(f"| {k} (fixed) | {v['value']:.5g} | | {v['unit']} |")
-    lines += ["", "| quantity | RMS error | max error | RMS % of peak | fit % | frames |",
-              "|---|---|---|---|---|---|"]
-    for r in result.summary.itertuples():
-        lines.append(f"| {r.quantity} | {r.rms:.4g} {r.unit} | {r.max_abs:.4g} {r.unit} | "
-                     f"{r.rms_pct_of_peak:.2f} | {r.fit_pct:.2f} | {r.frames} |")
-    lines += [""] + [f"![{f.stem}]({f.name})" for f in figures] + [""]
-    files.append(write_text_atomic(run / COMPARE_REPORT, "\n".join(lines)))
+    files.append(write_text_atomic(run / COMPARE_REPORT,
+                                   compare_markdown(report, result.summary, figures)))
     files.append(write_report(run))
     return result, files + figures
 

@@ -60,6 +60,19 @@ def error_summary(measured: pd.DataFrame, model: pd.DataFrame,
     return pd.DataFrame(rows)
 
 
+def errors_against_drive(measured: pd.DataFrame, drive: SpoolDrive, margin_s: float
+                         ) -> pd.DataFrame:
+    """:func:`error_summary` against a known drive (a render's truth), twice: over all
+    frames (``rows`` = "all frames") and away from the drive's start and stop by more
+    than ``margin_s`` (s), where ω steps ("away from start/stop")."""
+    model = spool_model(drive, measured["t_s"].to_numpy())
+    t = measured["t_s"].to_numpy()
+    away = (np.abs(t - drive.start_s) > margin_s) & (np.abs(t - drive.stop_s) > margin_s)
+    parts = [error_summary(measured, model, mask=mask).assign(rows=label)
+             for label, mask in (("all frames", None), ("away from start/stop", away))]
+    return pd.concat(parts, ignore_index=True)
+
+
 @dataclass(frozen=True)
 class SpoolFit:
     """A fitted spool model: the drive, fitted values ± 1σ, and what was held fixed.
