@@ -246,8 +246,8 @@ def _synth_board(args: argparse.Namespace) -> int:
     from .synthetic.board import BoardSpec, intrinsics_views, plane_view, write_views
 
     # The same camera as `synth spool` with these options (as a pinhole, to photograph boards).
+    nx, ny = parse_board(args.board)
     cam = _camera(args, _spool_scenario(args), pinhole=True)
-    nx, ny = (int(v) for v in args.board.lower().split("x"))
     out = Path(args.out)
     views = write_views(intrinsics_views(cam, BoardSpec((9, 6), 12.0), args.views, args.seed),
                         out, "camera_view")
@@ -481,13 +481,21 @@ def _print_fit(report: dict) -> None:
         print(f"unexplained: {report['unexplained']}")
 
 
+def parse_board(text: str) -> tuple[int, int]:
+    """``--board COLSxROWS`` (inner corners, or squares for ChArUco), e.g. ``9x6``."""
+    try:
+        nx, ny = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise CranktrackError(f"--board {text!r} is not COLSxROWS, e.g. 9x6") from None
+    if nx < 2 or ny < 2:
+        raise CranktrackError(f"--board {text!r} needs at least 2 columns and 2 rows")
+    return nx, ny
+
+
 def _board(args: argparse.Namespace):
     from .calibration.camera import Board
 
-    try:
-        nx, ny = (int(v) for v in args.board.lower().split("x"))
-    except ValueError:
-        raise CranktrackError(f"--board {args.board!r} is not COLSxROWS, e.g. 9x6") from None
+    nx, ny = parse_board(args.board)
     if args.charuco:
         return Board("charuco", (nx, ny), args.square_mm, args.marker_mm, args.dictionary)
     return Board("chessboard", (nx, ny), args.square_mm)

@@ -29,6 +29,12 @@ def ensure_dir(path: str | os.PathLike) -> Path:
             f"{p} exists and is not a folder; choose another output folder") from e
     except PermissionError as e:
         raise CranktrackError(f"cannot create the folder {p}: permission denied") from e
+    except NotADirectoryError as e:
+        raise CranktrackError(f"cannot create the folder {p}: a part of its path is a file, "
+                              "not a folder") from e
+    except OSError as e:  # a read-only filesystem, a path under /proc, a full disk, …
+        raise CranktrackError(f"cannot create the folder {p} ({e.strerror or e}); choose "
+                              "another output folder") from e
     if not os.access(p, os.W_OK):
         raise CranktrackError(f"the folder {p} is not writable; choose another output folder")
     return p

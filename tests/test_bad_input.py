@@ -59,6 +59,34 @@ def test_output_path_that_is_a_file(small_h264, tmp_path):
     assert "Traceback" not in p.stderr
 
 
+@pytest.mark.parametrize("where, says", [("taken/sub", "a part of its path is a file"),
+                                         ("/proc/cranktrack-test/run", "choose another")])
+def test_output_folder_that_cannot_be_made_is_one_sentence(small_h264, tmp_path, capsys,
+                                                            where, says):
+    (tmp_path / "taken").write_text("a file, not a folder")
+    out = where if where.startswith("/") else str(tmp_path / where)
+    assert main(["track", str(small_h264.video), "--out", out]) == 1
+    err = capsys.readouterr().err
+    assert says in err and err.count("\n") == 1
+
+
+def test_read_only_filesystem_is_one_sentence(tmp_path, monkeypatch, capsys):
+    def read_only(self, *args, **kwargs):
+        raise OSError(30, "Read-only file system", str(self))
+
+    monkeypatch.setattr(files.Path, "mkdir", read_only)
+    assert main(["synth", "spool", "--out", str(tmp_path / "new"), "--size", "160x120"]) == 1
+    err = capsys.readouterr().err
+    assert "Read-only file system" in err and err.count("\n") == 1
+
+
+def test_a_board_size_that_is_not_cols_x_rows_is_one_sentence(tmp_path, capsys):
+    for bad in ("9by6", "9x6x2", "1x6"):
+        assert main(["synth", "board", "--board", bad, "--out", str(tmp_path / "b")]) == 1
+        assert "--board" in capsys.readouterr().err
+    assert not (tmp_path / "b").exists()
+
+
 def test_disk_full_is_one_sentence_and_earlier_files_stay(small_h264, tmp_path, monkeypatch,
                                                           capsys):
     real = files.os.replace
@@ -148,3 +176,35 @@ def test_two_blobs_of_one_colour_are_reported(tmp_path):
     assert len(notes) == 1 and notes[0].startswith("marker B: 2 blobs")
     p = _run("track", str(tmp_path / "two.mp4"), "--out", str(tmp_path / "run2"))
     assert "2 blobs of its colour and size" in p.stderr and "Traceback" not in p.stderr
+
+
+def test_a_damaged_stream_header_is_one_sentence(small_h264, tmp_path, capsys):
+    # The sample entry's codec tag renamed: FFmpeg opens the file but has no decoder
+    # for the stream, so it knows no frame size (was an AttributeError).
+    video = tmp_path / "header.mp4"
+    video.write_bytes(small_h264.video.read_bytes().replace(b"avc1", b"zzzz"))
+    assert main(["track", str(video), "--out", str(tmp_path / "run")]) == 1
+    err = capsys.readouterr().err
+    assert "damaged video stream header" in err and err.count("\n") == 1
+
+
+def test_a_metadata_tag_that_is_not_utf8_does_not_stop_the_run(tmp_path, capsys):
+    import av
+    import numpy as np
+
+    video = tmp_path / "tagged.mp4"
+    with av.open(str(video), "w") as out:
+        out.metadata["title"] = "cranktrack-title"
+        s = out.add_stream("mpeg4", rate=30)
+        s.width, s.height, s.pix_fmt = 64, 48, "yuv420p"
+        for _ in range(5):
+            frame = av.VideoFrame.from_ndarray(np.full((48, 64, 3), 128, np.uint8), "rgb24")
+            out.mux(s.encode(frame))
+        out.mux(s.encode())
+    data = video.read_bytes()
+    assert b"cranktrack-title" in data
+    video.write_bytes(data.replace(b"cranktrack-title", b"cranktrack-\xce\xff\xfe\xce"))
+    # Was a UnicodeDecodeError before any frame; now the five frames are read.
+    assert main(["track", str(video), "--out", str(tmp_path / "run")]) in (0, 1)
+    assert len(pd.read_csv(tmp_path / "run" / "tracks.csv")) == 5
+

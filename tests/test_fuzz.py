@@ -48,3 +48,4 @@ def test_random_calibration_json_is_refused_cleanly(data):
             load_calibration(path, (640, 480))
         except CranktrackError:
             pass
+

@@ -187,7 +187,7 @@ class FrameSource:
             index += 1
             return Frame(index - 1, t, *pixels)
 
-        with av.open(str(self.path)) as container:
+        with av.open(str(self.path), metadata_errors="replace") as container:
             stream = container.streams.video[0]
             stream.thread_type = "AUTO"  # frame-threaded decoding; order is kept
             packets = container.demux(stream)
@@ -336,7 +336,8 @@ def open_frames(path: str | os.PathLike, fps: float | None = None) -> FrameSourc
     if p.stat().st_size == 0:
         raise CranktrackError(f"{p} is empty (0 bytes); it is not a video")
     try:
-        with av.open(str(p)) as container:
+        # A damaged metadata tag (not valid UTF-8) must not stop the frames being read.
+        with av.open(str(p), metadata_errors="replace") as container:
             if not container.streams.video:
                 raise CranktrackError(f"{p} has no video stream")
             s = container.streams.video[0]
@@ -345,8 +346,13 @@ def open_frames(path: str | os.PathLike, fps: float | None = None) -> FrameSourc
                 duration = float(s.duration * s.time_base)
             else:
                 duration = container.duration / av.time_base if container.duration else None
-            return FrameSource(p, "video", s.codec_context.width, s.codec_context.height, rate,
-                               s.frames or None, s.codec_context.name, duration_s=duration)
+            codec = s.codec_context
+            if codec is None or not codec.width or not codec.height:
+                # A damaged stream header: FFmpeg opens the file but knows no decoder or size.
+                raise CranktrackError(f"{p} has a damaged video stream header (no decoder or "
+                                      "frame size in it); it cannot be read")
+            return FrameSource(p, "video", codec.width, codec.height, rate,
+                               s.frames or None, codec.name, duration_s=duration)
     except av.FFmpegError as e:
         raise CranktrackError(
             f"{p} is not a video FFmpeg can read ({e.strerror}); if it is a recording that "
