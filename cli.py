@@ -41,6 +41,16 @@ def _positive(text: str) -> float:
     return v
 
 
+def _count(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be 0 or more")
+    return v
+
+
 def _non_negative(text: str) -> float:
     try:
         v = float(text)
@@ -714,7 +724,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="continue a run in --out that was interrupted (Ctrl-C)")
     p.add_argument("--rerun", nargs="?", const="RUN/run.rrd", metavar="FILE|spawn",
                    help="also write a Rerun recording (default RUN/run.rrd), or `spawn` a viewer")
-    p.add_argument("--fill-gaps", type=int, default=0, metavar="N",
+    p.add_argument("--fill-gaps", type=_count, default=0, metavar="N",
                    help="interpolate gaps of up to N frames, flagged as interpolated (0: off)")
     p.add_argument("--fps", dest="fps_images", type=_positive,
                    help="frame rate of an image folder (videos use their own timestamps)")
@@ -823,6 +833,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return func(args)
     except CranktrackError as e:
+        _print_warnings(e.warnings)
         print(f"cranktrack: error: {e}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:

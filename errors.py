@@ -9,4 +9,12 @@ any other exception is a bug.
 
 
 class CranktrackError(Exception):
-    """A problem with the user's input, reported as one clear sentence."""
+    """A problem with the user's input, reported as one clear sentence.
+
+    ``warnings`` are what the failed step had already noticed (a video cut
+    short, a damaged stretch): often the real cause, so the CLI prints them
+    before the sentence."""
+
+    def __init__(self, message: str, warnings: tuple[str, ...] | list[str] = ()) -> None:
+        super().__init__(message)
+        self.warnings = tuple(warnings)

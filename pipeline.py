@@ -93,6 +93,26 @@ def _version() -> str:
         return "unknown"
 
 
+def _check_before_tracking(width: int, height: int, video: str | os.PathLike,
+                           specs: tuple[MarkerSpec, ...],
+                           known_length: tuple[str, str, float] | None,
+                           calibration: PlaneCalibration | None) -> None:
+    """What can be refused before a single frame is tracked, so a long video is not
+    tracked only to fail at its end."""
+    names = [s.name for s in specs]
+    if known_length is not None:
+        missing = [m for m in known_length[:2] if m not in names]
+        if missing:
+            raise CranktrackError(
+                f"--known-length names {' and '.join(missing)}, not among the tracked "
+                f"markers {', '.join(names)} (add one with --marker NAME=COLOUR)")
+    if calibration is not None and calibration.image_size != (width, height):
+        size = calibration.image_size
+        raise CranktrackError(
+            f"the calibration was made for {size[0]}x{size[1]} images, but {video} is "
+            f"{width}x{height}; calibrate for this camera setting")
+
+
 def track_run(
     video: str | os.PathLike,
     out_dir: str | os.PathLike,
@@ -123,6 +143,11 @@ def track_run(
     ``on_start(expected_frames)`` and ``on_frame(index)`` report progress.
     """
     source = open_frames(video, fps=fps)
+    _check_before_tracking(source.width, source.height, video, specs, known_length, calibration)
+    if window_s is not None and source.duration_s and window_s > source.duration_s / 2:
+        # ω and v_B need a window's worth of frames each side of a row: none would have one.
+        raise CranktrackError(f"--window-s {window_s:g} is more than half the video's "
+                              f"{source.duration_s:.3g} s; choose a window of a few frames")
     folder = ensure_dir(out_dir)
     if on_start:
         on_start(source.expected_frames)
@@ -174,13 +199,8 @@ def track_run(
             raise CranktrackError(
                 f"marker {s0.name} (hue {s0.hue_deg:g}°) was not found in any frame, so there "
                 f"are no kinematics; {folder / TRACKS} has what was found; check the "
-                "marker's colour (--marker NAME=COLOUR)")
+                "marker's colour (--marker NAME=COLOUR)", result.problems)
         if calibration is not None:
-            if calibration.image_size != (source.width, source.height):
-                size = calibration.image_size
-                raise CranktrackError(
-                    f"the calibration was made for {size[0]}x{size[1]} images, but {video} is "
-                    f"{source.width}x{source.height}; calibrate for this camera setting")
             cal = align_to_markers(calibration, tracks)
             if known_length is not None:
                 cal = check_length(cal, tracks, *known_length)

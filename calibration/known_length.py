@@ -37,9 +37,10 @@ def parse_known_length(text: str) -> tuple[str, str, float]:
         raise CranktrackError(
             f"--known-length {text!r} is not of the form NAME-NAME=MILLIMETRES, "
             "e.g. A-C=160.8") from None
-    if not a or not b or a == b or not length > 0:
+    if not a or not b or a == b or not 0 < length < float("inf"):
         raise CranktrackError(
-            f"--known-length {text!r} needs two different markers and a positive length")
+            f"--known-length {text!r} needs two different markers and a positive, finite "
+            "length")
     return a, b, length
 
 

@@ -28,6 +28,21 @@ def test_truncated_video_keeps_the_tracks_up_to_the_damage(small_h264, tmp_path)
     assert 10 < len(tracks) < 60  # what could be decoded, not invented
 
 
+def test_a_run_that_fails_still_tells_what_went_wrong_with_the_video(small_h264, tmp_path,
+                                                                     capsys):
+    # Cut short and asked for a colour that is not there: the error is about the marker,
+    # but the damage found on the way is printed first, since it may be the real cause.
+    data = small_h264.video.read_bytes()
+    cut = tmp_path / "cut.mp4"
+    cut.write_bytes(data[: len(data) // 2])
+    assert main(["track", str(cut), "--out", str(tmp_path / "run"), "--known-length",
+                 "A-C=160.8", "--marker", "B=yellow"]) == 1
+    err = capsys.readouterr().err.splitlines()
+    assert err[-1].startswith("cranktrack: error: marker B")
+    assert any(line.startswith("warning:") and "truncated or damaged" in line
+               for line in err[:-1]), err
+
+
 def test_corrupt_packets_in_the_middle_are_skipped_and_listed(small_h264, tmp_path):
     data = bytearray(small_h264.video.read_bytes())
     start = len(data) // 3

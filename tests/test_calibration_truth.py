@@ -109,4 +109,4 @@ def test_a_calibration_for_another_image_size_is_refused(setup, tmp_path):
                          RenderSettings(size=(320, 240), seconds=0.3))
     with pytest.raises(CranktrackError, match="made for 640x360"):
         track_run(small.video, tmp_path / "r", calibration=plane)
-    assert (tmp_path / "r" / "tracks.csv").exists()  # the tracking done is kept
+    assert not (tmp_path / "r").exists()  # refused before any frame is tracked

@@ -67,6 +67,25 @@ def test_bad_known_length(small_h264, tmp_path):
                              "--known-length", "A-C"), "NAME-NAME=MILLIMETRES")
 
 
+@pytest.mark.parametrize("options, says", [
+    (["--known-length", "A-C=inf"], "positive, finite"),
+    (["--known-length", "A-Q=5"], "Q, not among the tracked markers A, B, C"),
+    (["--marker", "B=400"], "outside 0–360°"),
+    (["--known-length", "A-C=160.8", "--window-s", "100"], "more than half the video"),
+])
+def test_bad_values_are_refused_before_tracking(small_h264, tmp_path, capsys, options, says):
+    assert main(["track", str(small_h264.video), "--out", str(tmp_path / "r"), *options]) == 1
+    err = capsys.readouterr().err
+    assert says in err and err.count("\n") == 1
+    assert not (tmp_path / "r").exists()  # refused before a frame was tracked
+
+
+def test_a_negative_gap_length_is_refused(small_h264, tmp_path, capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["track", str(small_h264.video), "--out", str(tmp_path / "r"), "--fill-gaps", "-3"])
+    assert e.value.code == 2 and "must be 0 or more" in capsys.readouterr().err
+
+
 def test_marker_colour_absent_keeps_tracks_and_explains(small_h264, tmp_path):
     # B is asked to be yellow; there is no yellow in the scene.
     p = _run("track", str(small_h264.video), "--out", str(tmp_path / "r"),

@@ -46,12 +46,15 @@ class MarkerSpec:
         if key in COLOUR_HUES_DEG:
             return cls(name, COLOUR_HUES_DEG[key])
         try:
-            return cls(name, float(key) % 360.0)
+            hue = float(key)
         except ValueError:
             known = ", ".join(COLOUR_HUES_DEG)
             raise CranktrackError(
                 f"unknown marker colour {colour!r} for {name}; use one of {known} or a hue "
                 "in degrees") from None
+        if not 0.0 <= hue <= 360.0:
+            raise CranktrackError(f"marker {name}'s hue {colour.strip()} is outside 0–360°")
+        return cls(name, hue % 360.0)
 
     def mask(self, hsv: NDArray[np.uint8]) -> NDArray[np.uint8]:
         """Pixels of this colour (255) in an OpenCV 8-bit HSV image."""
