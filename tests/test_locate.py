@@ -20,7 +20,7 @@ def draw(discs: dict[str, tuple[float, float, float]], size=(200, 150), noise_dn
     """RGB uint8 image with each named disc (x, y, radius; px, pixel centres at integers)."""
     w, h = size
     y, x = (np.mgrid[0:h * sub, 0:w * sub] + 0.5) / sub - 0.5
-    image = np.empty((h, w, 3)) + np.array(BACKGROUND)
+    image = np.zeros((h, w, 3)) + np.array(BACKGROUND)
     for name, (cx, cy, r) in discs.items():
         cover = ((x - cx) ** 2 + (y - cy) ** 2 < r * r).reshape(h, sub, w, sub).mean((1, 3))
         image += cover[..., None] * (np.array(COLOURS[name]) - image)
