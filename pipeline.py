@@ -47,7 +47,7 @@ from .run_folder import (
 from .tracker.gaps import fill_gaps
 from .tracker.markers import DEFAULT_MARKERS, MarkerSpec
 from .tracker.track import TrackerState, TrackingInterrupted, track, tracks_table
-from .tracker.video import open_frames
+from .tracker.video import FrameSource, open_frames
 
 if TYPE_CHECKING:
     from .loop.camera_view import CameraView
@@ -93,12 +93,13 @@ def _version() -> str:
         return "unknown"
 
 
-def _check_before_tracking(width: int, height: int, video: str | os.PathLike,
-                           specs: tuple[MarkerSpec, ...],
+def _check_before_tracking(source: FrameSource, specs: tuple[MarkerSpec, ...],
                            known_length: tuple[str, str, float] | None,
-                           calibration: PlaneCalibration | None) -> None:
+                           calibration: PlaneCalibration | None,
+                           window_s: float | None) -> None:
     """What can be refused before a single frame is tracked, so a long video is not
     tracked only to fail at its end."""
+    width, height, video = source.width, source.height, source.path
     names = [s.name for s in specs]
     if known_length is not None:
         missing = [m for m in known_length[:2] if m not in names]
@@ -111,6 +112,10 @@ def _check_before_tracking(width: int, height: int, video: str | os.PathLike,
         raise CranktrackError(
             f"the calibration was made for {size[0]}x{size[1]} images, but {video} is "
             f"{width}x{height}; calibrate for this camera setting")
+    if window_s is not None and source.duration_s and window_s > source.duration_s / 2:
+        # ω and v_B need a window's worth of frames each side of a row: none would have one.
+        raise CranktrackError(f"--window-s {window_s:g} is more than half the video's "
+                              f"{source.duration_s:.3g} s; choose a window of a few frames")
 
 
 def track_run(
@@ -143,11 +148,7 @@ def track_run(
     ``on_start(expected_frames)`` and ``on_frame(index)`` report progress.
     """
     source = open_frames(video, fps=fps)
-    _check_before_tracking(source.width, source.height, video, specs, known_length, calibration)
-    if window_s is not None and source.duration_s and window_s > source.duration_s / 2:
-        # ω and v_B need a window's worth of frames each side of a row: none would have one.
-        raise CranktrackError(f"--window-s {window_s:g} is more than half the video's "
-                              f"{source.duration_s:.3g} s; choose a window of a few frames")
+    _check_before_tracking(source, specs, known_length, calibration, window_s)
     folder = ensure_dir(out_dir)
     if on_start:
         on_start(source.expected_frames)

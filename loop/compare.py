@@ -18,10 +18,12 @@ from ..models.crank_slider import crank_state
 from ..models.spool import SpoolDrive
 from .candidates import SPOOL_BASE
 from .evidence import fit_percent
+from .search import close_loop
 from .simulate import spool_drive
 
 #: Columns compared by default, with their units for display.
 COMPARED = {"theta_deg": "deg", "omega_rad_s": "rad/s", "vB_mm_s": "mm/s"}
+
 
 def spool_model(drive: SpoolDrive, t_s: np.ndarray) -> pd.DataFrame:
     """The analytic spool-driven crank-slider as a kinematics table at times ``t_s``."""
@@ -118,8 +120,6 @@ def fit_spool(measured: pd.DataFrame, known: dict[str, float] | None = None) -> 
     CranktrackError
         An unknown name, too few frames, or known values no spool model can meet.
     """
-    from .search import close_loop
-
     known = dict(known or {})
     unknown = set(known) - set(SPOOL_BASE)
     if unknown:

@@ -367,7 +367,7 @@ def locate(frame: Frame | NDArray[np.uint8], markers: Sequence[MarkerSpec] = DEF
             raise CranktrackError(f"locate needs an RGB image of shape (h, w, 3) and dtype "
                                   f"uint8, not {rgb.shape} {rgb.dtype}")
         frame = Frame(0, float(t_s), np.ascontiguousarray(rgb))
-    state = state or TrackerState.start(tuple(markers))
+    state = TrackerState.start(tuple(markers)) if state is None else state
     values = _locate_markers(frame, state)
     rows = [(st.spec.name, *values[5 * i:5 * i + 5]) for i, st in enumerate(state.markers)]
     return pd.DataFrame(rows, columns=["marker", "x_px", "y_px", "sigma_px", "ok", "status"])
