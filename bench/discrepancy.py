@@ -239,6 +239,110 @@ def sindy_comparison(seeds: int) -> None:
     print(f"  terms kept per equation: {min(sizes)}–{max(sizes)} of 5")
 
 
+#: The mechanism's effects (synthetic/mechanism.py, physics written apart from the fitter):
+#: label → (SpoolBed fields per size, the name the loop should give or "unexplained", the
+#: fitted parameter and the truth in its units).
+def _open_world_cases() -> dict:
+    from cranktrack.synthetic.mechanism import SpoolBed
+
+    def growth(g: float) -> dict:
+        bed = SpoolBed()
+        return {"wire_diameter_mm": g * bed.spool_radius_mm / bed.turn_hz}
+
+    return {
+        "slack, lost stroke": ([{"slack_mm": v} for v in (0.3, 1.0, 2.0)], "slack_mm",
+                               lambda e: e["slack_mm"]),
+        "slack, pure delay": ([{"delay_s": v} for v in (0.02, 0.05, 0.1)], "time_offset_s",
+                              lambda e: e["delay_s"]),
+        "spool growth": ([growth(v) for v in (0.03, 0.1, 0.3)], "spool_growth_per_s",
+                         lambda e: SpoolBed(**e).growth_per_s),
+        "wire stretch": ([{"stretch_mm": v} for v in (0.1, 0.3, 1.0)], "wire_stretch_mm",
+                         lambda e: e["stretch_mm"]),
+        "crank inertia": ([{"ring_hz": v} for v in (10.0, 6.0, 3.0)], "return_spring_hz",
+                          lambda e: e["ring_hz"]),
+        "clock scale": ([{"clock": v} for v in (1.01, 1.03, 1.1)], "clock_scale",
+                        lambda e: e["clock"]),
+        "eccentric spool (outside)": ([{"eccentricity": v, "spool_radius_mm": 1.0}
+                                       for v in (0.05, 0.1, 0.2)], "unexplained", None),
+        "dead band (outside)": ([{"dead_band_deg": v} for v in (0.5, 1.0, 2.0)],
+                                "unexplained", None),
+        "Coulomb friction (outside)": ([{"ring_hz": 3.0, "coulomb_rad_s2": v}
+                                        for v in (0.5, 1.0, 2.0)], "unexplained", None),
+    }
+
+
+def open_world(nulls: int) -> None:
+    """The loop on θ(t) from :mod:`cranktrack.synthetic.mechanism` (no render, no tracker:
+    AR(1) noise of σ 0.02°, lag-1 correlation 0.5, as tracked renders show), every
+    effect at three sizes, both physical forms where there are two, effects outside the
+    library, and ``nulls`` null series."""
+    from cranktrack.synthetic.mechanism import SpoolBed, measured_table
+
+    t = np.arange(75) / FPS
+    sigma, rho = 0.02, 0.5
+
+    def run(fields: dict, seed: int) -> dict:
+        e = dict(fields)
+        clock = e.pop("clock", 1.0)
+        bed = SpoolBed(**e)
+        true_t = np.maximum(KNOWN["start_s"] + clock * (t - KNOWN["start_s"]), 0.0)
+        table = measured_table(bed.theta(true_t), t, sigma, seed=seed, correlation=rho)
+        return close_loop(table, KNOWN).to_dict()
+
+    t0 = time.perf_counter()
+    rows = []
+    for seed in range(nulls):
+        r = run({}, 1000 + seed)
+        rows.append({"truth": "none", "size": "", "named": r["effects"],
+                     "unexplained": bool(r["unexplained"])})
+    for label, (sizes, expect, truth) in _open_world_cases().items():
+        for i, fields in enumerate(sizes):
+            r = run(fields, i)
+            rec = {"truth": label, "size": ", ".join(f"{k}={v:g}" for k, v in fields.items()),
+                   "named": r["effects"], "unexplained": bool(r["unexplained"]),
+                   "expect": expect}
+            p = r["parameters"].get(expect)
+            if truth and p and "sigma" in p:
+                true = truth(fields)
+                rec["value"], rec["true"] = p["value"], true
+                rec["rel_err"] = (p["value"] - true) / (true - (1.0 if expect == "clock_scale"
+                                                                else 0.0))
+            if expect == "unexplained" and r["leftover"]:
+                rec["signature"] = r["leftover"]["sentence"][:90]
+            rows.append(rec)
+    table = pd.DataFrame(rows)
+    table["first"] = table["named"].map(lambda x: x[0] if x else "none")
+    table.loc[table["unexplained"] & (table["first"] == "none"), "first"] = "unexplained"
+    print(f"\nOpen world: the mechanism's physics, in memory, σ {sigma}° with lag-1 "
+          f"correlation {rho} ({time.perf_counter() - t0:.0f} s)")
+    print("Confusion matrix (rows: effect in the mechanism; columns: named first):")
+    print(pd.crosstab(table["truth"], table["first"]).to_string())
+    null = table[table["truth"] == "none"]
+    eff = table[table["truth"] != "none"]
+    inside = eff[eff["expect"] != "unexplained"]
+    outside = eff[eff["expect"] == "unexplained"]
+    right = (inside["first"] == inside["expect"]).sum()
+    alone = inside["named"].map(len).le(1) & (inside["first"] == inside["expect"])
+    print(f"\nright family named first: {right} of {len(inside)} "
+          f"({100 * right / len(inside):.0f} %)")
+    print(f"no extra effect beside the right one: {int(alone.sum())} of {int(right)}")
+    print(f"false discoveries on {len(null)} nulls: {int(null['named'].map(bool).sum())}")
+    ok = outside["named"].map(len).eq(0) & outside["unexplained"]
+    print(f"outside the library, 'unexplained' with no name: {int(ok.sum())} of {len(outside)}"
+          f"; a wrong name: {int(outside['named'].map(bool).sum())}")
+    cols = [c for c in ("truth", "size", "named", "value", "true", "rel_err", "signature")
+            if c in eff]
+    print(eff[cols].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    # Speed: the whole loop on a minute of θ (1800 frames, the drive in the middle).
+    long_t = np.arange(1800) / FPS
+    table = measured_table(SpoolBed(start_s=25.0, slack_mm=1.0).theta(long_t), long_t, sigma,
+                           seed=0, correlation=rho)
+    t0 = time.perf_counter()
+    close_loop(table, {**KNOWN, "start_s": 25.0})
+    print(f"\nspool loop on a minute of θ (1800 frames): {time.perf_counter() - t0:.1f} s "
+          "(fit only; tracking is bench/speed.py's)")
+
+
 def main_bench() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=10, help="null renders per noise level (10)")
@@ -246,6 +350,8 @@ def main_bench() -> None:
                     help="only the frame-motion check (fast: no θ fits)")
     ap.add_argument("--spool-only", action="store_true",
                     help="only the spool model's confusion matrix, nulls and ladders")
+    ap.add_argument("--open-world", action="store_true",
+                    help="only the loop on the mechanism's physics in memory (about 2 min)")
     ap.add_argument("--sma-only", action="store_true",
                     help="only the SMA model's null renders and ladders (slow: ~2 min a fit)")
     args = ap.parse_args()
@@ -254,6 +360,9 @@ def main_bench() -> None:
         return
     if args.sma_only:
         sma_model(min(args.seeds, 5))
+        return
+    if args.open_world:
+        open_world(max(60, args.seeds))
         return
     t0 = time.perf_counter()
     rows = []
@@ -316,6 +425,7 @@ def main_bench() -> None:
                                                 .to_dict(orient="records"), default=str))
     if args.spool_only:
         return
+    open_world(max(60, args.seeds))
     frame_motion(args.seeds)
     dynamic_model(min(args.seeds, 10))
     sma_model(min(args.seeds, 5))

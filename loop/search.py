@@ -42,7 +42,7 @@ from scipy.optimize import least_squares
 
 from ..errors import CranktrackError
 from .camera_view import CameraView, with_camera
-from .candidates import CAMERA_CANDIDATES, Candidate, Parameter
+from .candidates import CAMERA_CANDIDATES, CAMERA_PARAMETERS, READOUT, Candidate, Parameter
 from .evidence import (
     BIC_THRESHOLD,
     IMPRINT_SIGMAS,
@@ -57,6 +57,7 @@ from .evidence import (
     ljung_box_p,
     still_segments,
 )
+from .leftover import signature
 from .simulate import MODELS, ModelSpec
 
 #: Model evaluations per least-squares start: kinked models (a drive that starts and
@@ -119,14 +120,17 @@ class CandidateScore:
     resolvable: bool
     accepted: bool = False
     note: str = ""
+    #: Why the effect cannot be, whatever its fit: the rigid links contradict a camera
+    #: effect, or it fits only with a value it has nowhere near on its own.
+    veto: str = ""
 
     @property
     def passes(self) -> bool:
         return (self.delta_bic > BIC_THRESHOLD and self.ci_excludes_off and self.plausible
-                and self.resolvable)
+                and self.resolvable and not self.veto)
 
     def why_not(self) -> str:
-        why = []
+        why = [self.veto] if self.veto else []
         if self.delta_bic <= BIC_THRESHOLD:
             why.append(f"ΔBIC {self.delta_bic:.1f} ≤ {BIC_THRESHOLD:g}")
         if not self.ci_excludes_off:
@@ -144,7 +148,8 @@ class CandidateScore:
                 "parameters": {k: {"value": v, "sigma": self.sigmas.get(k)}
                                for k, v in self.values.items()},
                 "ci_excludes_off": self.ci_excludes_off, "plausible": self.plausible,
-                "resolvable": self.resolvable, "accepted": self.accepted, "note": self.note}
+                "resolvable": self.resolvable, "accepted": self.accepted, "note": self.note,
+                "veto": self.veto}
 
 
 def _switched_off(c: Candidate) -> dict[str, float]:
@@ -204,6 +209,11 @@ class LoopResult:
     #: The frame-motion check (:func:`.frame_motion.frame_shake`), when the run has
     #: plane tracks of A and C: a shake θ cannot show.
     frame_motion: dict | None = None
+    #: Effects that improved the fit but left a structured residual well above the
+    #: noise: not named, as they may stand in for something outside the library.
+    tentative: tuple[str, ...] = ()
+    #: The signature of a residual no candidate explains (:func:`.leftover.signature`).
+    leftover: dict | None = None
 
     @property
     def shake_accepted(self) -> bool:
@@ -233,20 +243,17 @@ class LoopResult:
                 params[k] = {"value": v, "unit": unit, "fixed": False, "sigma": sd,
                              "ci95": [v - 1.96 * sd, v + 1.96 * sd]}
         before, after = self.diagnosis_before, self.diagnosis_after
-        unexplained = None
-        # Against the tracker's own σ: the noise model's σ grows with whatever
-        # structure no candidate could fit, and would hide exactly this.
         level = self.tracker_sigma_deg or self.noise.sigma_deg
-        if after["rmse_deg"] > 1.5 * level and after["ljung_box_p"] < WHITE_P:
-            top = next(iter(after["correlations"].items()), None)
-            unexplained = ("the residual stays structured and matches no candidate"
-                           + (f"; it correlates most with {top[0]} (r = {top[1]:.2f})"
-                              if top else ""))
+        unexplained = None
+        if self.leftover is not None:
+            unexplained = "the residual stays structured and matches no candidate: " + (
+                self.leftover["sentence"] or "no simple shape describes it")
+            if self.tentative:
+                unexplained += (f"; {', '.join(self.tentative)} improved the fit but did not "
+                                "account for it, so it is not named: it may stand in for "
+                                "something not in the library")
             if self.links.get("camera_effect_suspected"):
                 unexplained += "; " + self.links["reading"]
-            if self.effects:
-                unexplained += ("; the accepted effects improve the fit but do not account for "
-                                "it, so they may stand in for something not in the library")
         return {
             "model": self.model,
             "known": self.known,
@@ -270,6 +277,8 @@ class LoopResult:
             "links": self.links,
             "camera_effect_suspected": bool(self.links.get("camera_effect_suspected", False)),
             "unexplained": unexplained,
+            "tentative_effects": list(self.tentative),
+            "leftover": self.leftover,
             "diagnosis_before": before,
             "diagnosis_after": after,
             "messages": self.messages,
@@ -351,15 +360,37 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
                       "why": f"without {' or '.join(c.needs_known)} known, {c.name} is the same "
                              "as a change in the base model's own parameters"}
                      for c in candidates.values() if not separable(c)]
-    tryable = [c for c in candidates.values() if separable(c)]
+    dt = float(np.median(np.diff(t)))
+    # A rolling shutter reads the frame out within one frame interval.
+    tryable = [replace(c, plausible=(-dt, dt)) if c.name == READOUT else c
+               for c in candidates.values() if separable(c)]
     links = measured["L2_mm"].to_numpy(float)[ok] if "L2_mm" in measured else None
-    noise = _judge_noise(fitter, base, tryable, tracker_deg, links)
-    current, steps, scores, groups = _add_effects(fitter, base, tryable, noise)
+    rigid = link_evidence(measured, tracker_deg)
+    noise = _judge_noise(fitter, base, tryable, tracker_deg, links, deg)
+    # A lens or a tilt bends the rigid crank as it crosses the image; where it
+    # does not bend, such an effect would only soak up something else.
+    veto = ({} if rigid.get("camera_effect_suspected", True) else
+            {n: "the rigid crank |AB| does not bend with θ, as a lens or tilt would make it"
+             for n in CAMERA_PARAMETERS})
+    current, steps, scores, groups = _add_effects(fitter, base, tryable, noise, veto)
     before = diagnose(base, deg, t, ctx)
     after = diagnose(current, deg, t, ctx)
+    # Structure well above the tracker's noise that the accepted effects leave:
+    # they improved the fit without explaining it, so none is named.
+    level = tracker_deg or noise.sigma_deg
+    tentative, leftover = (), None
+    if after["rmse_deg"] > 1.5 * level and after["ljung_box_p"] < WHITE_P:
+        tentative = current.effects
+        if tentative:
+            scores = [replace(sc, accepted=False, note=sc.note + (
+                "; " if sc.note else "") + "improved the fit but left a structured residual "
+                f"of {after['rmse_deg']:.3g}° (noise {level:.3g}°), so not named")
+                if sc.accepted else sc for sc in scores]
+            current, steps, after = base, [], before
+        leftover = signature(t, np.degrees(base.residual), np.degrees(base.model), ctx)
     return LoopResult(model, known, base, current, steps, scores, not_separable, groups,
-                      before, after, noise, tracker_deg, link_evidence(measured, tracker_deg),
-                      messages)
+                      before, after, noise, tracker_deg, rigid, messages,
+                      tentative=tuple(tentative), leftover=leftover)
 
 
 class _Fitter:
@@ -415,7 +446,7 @@ class _Fitter:
 
 
 def _judge_noise(fitter: _Fitter, base: ModelFit, tryable: list[Candidate],
-                 tracker_deg: float, links: NDArray | None) -> NoiseModel:
+                 tracker_deg: float, links: NDArray | None, theta_deg: NDArray) -> NoiseModel:
     """The noise every candidate is judged against, with its count of independent frames.
 
     It is judged on the richest model (the candidates together): its residual is
@@ -458,11 +489,31 @@ def _judge_noise(fitter: _Fitter, base: ModelFit, tryable: list[Candidate],
                    "that residual and of the |AB| link, each still stretch once")
 
 
-def _add_effects(fitter: _Fitter, base: ModelFit, tryable: list[Candidate], noise: NoiseModel
-                 ) -> tuple[ModelFit, list[ModelFit], list[CandidateScore], list[dict]]:
+def _stands_alone(c: Candidate, together: CandidateScore, single: CandidateScore | None
+                  ) -> bool:
+    """Whether an effect fitted beside others agrees with itself fitted alone."""
+    if single is None or not single.plausible:
+        return False
+    p = c.parameters[0].name
+    off = 0.0 if np.isinf(c.off) else c.off
+    a, b = single.values[p] - off, together.values[p] - off
+    return bool(a * b > 0 and max(abs(a), abs(b)) <= 3.0 * min(abs(a), abs(b)))
+
+
+def _add_effects(fitter: _Fitter, base: ModelFit, tryable: list[Candidate], noise: NoiseModel,
+                 veto: dict[str, str]) -> tuple[ModelFit, list[ModelFit], list[CandidateScore],
+                                                list[dict]]:
     """Rounds of candidates on top of the current model until none passes or the residual
-    is white: (final fit, accepted steps, every score, groups that fit alike)."""
+    is white: (final fit, accepted steps, every score, groups that fit alike).
+
+    ``veto`` names candidates that cannot be, with the reason. From round 2 on, an
+    effect must also stand on its own: alone on the base model it must have been
+    plausible, with the same sign and within a factor of 3 of the value it takes
+    beside the others — an effect that is only there to soak up what another
+    left, at a value it does not have alone, is not a second effect.
+    """
     current, steps, scores, groups = base, [], [], []
+    alone: dict[str, CandidateScore] = {}
     for rnd in range(1, len(tryable) + 1):
         if ljung_box_p(current.residual) >= WHITE_P:
             break  # nothing structured left to explain
@@ -471,9 +522,16 @@ def _add_effects(fitter: _Fitter, base: ModelFit, tryable: list[Candidate], nois
             if c.name in current.effects:
                 continue
             alt = fitter.fit((*current.effects, c.name), current.values)
-            if alt is not None:
-                tried.append((_score(c, rnd, current, alt, noise, fitter.t, fitter.simulate,
-                                     fitter.nyquist), alt))
+            if alt is None:
+                continue
+            sc = _score(c, rnd, current, alt, noise, fitter.t, fitter.simulate,
+                        fitter.nyquist)
+            if rnd == 1:
+                alone[c.name] = sc
+            why = veto.get(c.name, "")
+            if rnd > 1 and not why and not _stands_alone(c, sc, alone.get(c.name)):
+                why = "alone on the base model it has another value or none at all"
+            tried.append((replace(sc, veto=why), alt))
         if not tried:
             break
         tried.sort(key=lambda sa: -sa[0].delta_bic)

@@ -56,9 +56,64 @@ def plot_residuals(table: pd.DataFrame, result: LoopResult, path: Path) -> Path:
     return path
 
 
+#: What to look at on the rig when the loop names an effect.
+RIG_CHECKS = {
+    "slack_mm": "check that the wire is taut before the drive starts",
+    "time_offset_s": "check when the drive really starts against the video's clock (film an "
+                     "LED lit with the drive)",
+    "clock_scale": "check the frame rate the camera recorded against the one the file claims",
+    "spool_growth_per_s": "wind the wire in a single layer or on a larger spool",
+    "return_spring_hz": "the crank rings on the wire and spring: damp it or lighten it",
+    "wire_stretch_mm": "use a stiffer wire or a weaker return spring",
+    "lens_edge_pct": "calibrate the camera (`cranktrack calibrate camera`, then `calibrate "
+                     "plane`)",
+    "tilt_vertical_deg": "square the camera to the rig's plane, or calibrate the plane",
+    "tilt_horizontal_deg": "square the camera to the rig's plane, or calibrate the plane",
+    "readout_s": "the camera's rolling shutter: use a global shutter or a shorter readout",
+    "pivot_amp_mm": "fix the bench or the pivot's mount",
+}
+
+
+def plain_summary(report: dict) -> str:
+    """One paragraph for a lab user: what was found, how sure, what it changes in the
+    numbers and what to check on the rig."""
+    before, after = report["rmse_before_deg"], report["rmse_after_deg"]
+    noise = report["tracker_sigma_deg"] or report["noise"]["sigma_deg"]
+    params = report["parameters"]
+    if report["unexplained"]:
+        out = (f"The {report['model']} model misses the measured angle by {before:.3g}° RMS, "
+               f"well above the tracker's noise ({noise:.3g}°), and no effect in the library "
+               "accounts for it, so none is named. What is left: "
+               f"{report['leftover']['sentence']}" if report.get("leftover") else
+               f"The {report['model']} model misses the measured angle by {before:.3g}° RMS "
+               f"and no effect accounts for it.")
+        return out + (". Treat the model's numbers as approximate until that is found; the "
+                      "statistics below say what was tried.")
+    if not report["effects"]:
+        return (f"The {report['model']} model alone reproduces the measured angle to "
+                f"{before:.3g}° RMS, at the tracker's noise ({noise:.3g}°): nothing is "
+                "missing that this video can show.")
+    found = []
+    for name in report["effects"]:
+        p = params.get(name, {})
+        unit = "" if p.get("unit") in ("", "1", None) else f" {p['unit']}"
+        value = (f" = {p['value']:.3g} ± {1.96 * p['sigma']:.2g}{unit} (95 %)"
+                 if "sigma" in p else "")
+        found.append(f"`{name}`{value}")
+    checks = [RIG_CHECKS[n] for n in report["effects"] if n in RIG_CHECKS]
+    return (f"Found: {', '.join(found)}. With it the model misses the measured angle by "
+            f"{after:.3g}° RMS instead of {before:.3g}° (worst frame "
+            f"{report['max_after_deg']:.3g}° instead of {report['max_before_deg']:.3g}°), "
+            f"against the tracker's noise of {noise:.3g}°; each effect had to win by a wide "
+            "margin and keep its value on its own to be named."
+            + (f" On the rig: {'; '.join(checks)}." if checks else ""))
+
+
 def report_markdown(report: dict) -> str:
-    """The report as Markdown: before/after, accepted effects, every candidate."""
-    lines = [f"# Closing the loop: {report['model']} model", ""]
+    """The report as Markdown: a plain paragraph, then before/after, accepted effects and
+    every candidate."""
+    lines = [f"# Closing the loop: {report['model']} model", "", "## In short", "",
+             plain_summary(report), "", "## The statistics", ""]
     effects = report["effects"]
     lines.append("Accepted effects, in order: " + (", ".join(f"`{e}`" for e in effects)
                                                    if effects else "none") + ".")

@@ -5,7 +5,8 @@ how it shows in the measured kinematics (:data:`EFFECTS`). All are off by
 default. ``scene.json`` lists them only when asked (``--declare-effects``),
 so a test can make data whose effect the fitting code is not told about.
 
-Physical effects change the motion (:class:`EffectedSpool`); recording
+Physical effects change the motion (:class:`EffectedSpool`, whose physics is
+:mod:`.mechanism`, written apart from the fitter's models); recording
 effects change which frames are written and the times the container claims
 (:func:`recording_times`); camera effects are the render options of the
 same names (lens, tilt, exposure).
@@ -19,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import CranktrackError
-from ..models.spool import spool_motion
+from .mechanism import SpoolBed
 from .scenarios import Motion, Scenario, SpoolScenario, motion_from_angle
 
 
@@ -53,6 +54,18 @@ EFFECTS: dict[str, EffectInfo] = {
     "return_spring_zeta": EffectInfo(
         "physical", "1",
         "damping ratio of that ringing (default 0.1 when return_spring_hz is set)"),
+    "drive_delay_s": EffectInfo(
+        "physical", "s",
+        "every movement of the drive reaches the crank this much later (slack as a pure "
+        "delay: a slipping coupling or a servo that answers late)"),
+    "spool_eccentricity": EffectInfo(
+        "physical", "1",
+        "the spool turns off-centre, so the wire's speed ripples by ± this fraction once per "
+        "spool turn (not in the fitter's library: it must come out unexplained)"),
+    "dead_band_deg": EffectInfo(
+        "physical", "deg",
+        "play between the wire and the crank: the wire closes this angle before the crank "
+        "moves, and the crank then stays that far behind (not in the fitter's library)"),
     "dropped_frames": EffectInfo(
         "recording", "fraction",
         "this fraction of frames is missing: gaps in the timestamps, never interpolated"),
@@ -86,10 +99,12 @@ EFFECTS: dict[str, EffectInfo] = {
                                   "drag at the pivot, on top of the bed's own: the crank "
                                   "follows each heating and cooling later and more smoothly "
                                   "but settles at the same angles"),
-    "coulomb_rad_s2": EffectInfo("physical", "rad/s²", "(free scenario) dry friction at the "
-                                 "pivot: the swing shrinks by the same angle every half cycle "
-                                 "instead of by the same fraction, and the crank comes to rest "
-                                 "off the springs' equilibrium"),
+    "coulomb_rad_s2": EffectInfo("physical", "rad/s²", "dry friction at the pivot: in "
+                                 "the free scenario the swing shrinks by the same angle every "
+                                 "half cycle instead of by the same fraction and the crank "
+                                 "comes to rest off the springs' equilibrium, on the spool "
+                                 "(with return_spring_hz) the crank sticks until the wire's "
+                                 "pull overcomes it and stops short of the kinematic angle"),
 }
 
 #: Physical effects of the free-response scenario.
@@ -108,44 +123,61 @@ def check_effects(out: dict[str, float]) -> dict[str, float]:
         raise CranktrackError("return_spring_zeta needs return_spring_hz")
     if "pivot_hz" in out and "pivot_amp_mm" not in out:
         raise CranktrackError("pivot_hz needs pivot_amp_mm")
-    for name in ("readout_s", "pivot_amp_mm", "pivot_hz", "exposure_s"):
+    if not 0 <= out.get("spool_eccentricity", 0) < 1:
+        raise CranktrackError("spool_eccentricity is a fraction of the radius, from 0 to below 1")
+    for name in ("readout_s", "pivot_amp_mm", "pivot_hz", "exposure_s", "drive_delay_s",
+                 "dead_band_deg", "coulomb_rad_s2"):
         if name in out and out[name] < 0:
             raise CranktrackError(f"{name} cannot be negative")
     return out
+
+
+#: Spool effects → the :class:`.mechanism.SpoolBed` field each sets (growth converts).
+_SPOOL_FIELDS = {"slack_mm": "slack_mm", "return_spring_hz": "ring_hz",
+                 "return_spring_zeta": "ring_zeta", "wire_stretch_mm": "stretch_mm",
+                 "drive_delay_s": "delay_s", "spool_eccentricity": "eccentricity",
+                 "dead_band_deg": "dead_band_deg", "coulomb_rad_s2": "coulomb_rad_s2"}
 
 
 @dataclass(frozen=True)
 class EffectedSpool:
     """The spool scenario with physical effects switched on.
 
-    The physics is :func:`cranktrack.models.spool.spool_motion` (a model
-    the fitting code can use too); this only turns it into marker positions.
+    The physics is :class:`.mechanism.SpoolBed`, written from the rig's parts and
+    sharing no code with the models the fitter simulates; this turns its θ(t)
+    into marker positions, with ω and α by central differences (h = 0.1 ms).
     """
 
     base: SpoolScenario = field(default_factory=SpoolScenario)
     effects: dict[str, float] = field(default_factory=dict)
     name: str = "spool"
 
+    def __post_init__(self) -> None:
+        _ = self.bed  # refuses effects that cannot go together before anything is written
+
+    @property
+    def bed(self) -> SpoolBed:
+        d, e = self.base.drive, self.effects
+        bed = SpoolBed(L1_mm=d.L1, L2_mm=d.L2, L3_0_mm=d.L3_0, speed_mm_s=d.speed_mm_s,
+                       start_s=d.start_s, stroke_mm=d.stroke_mm)
+        values = {_SPOOL_FIELDS[k]: v for k, v in e.items() if k in _SPOOL_FIELDS}
+        if "spool_growth_per_s" in e:  # a thicker wire layers faster: diameter = g·r/turns
+            values["wire_diameter_mm"] = (e["spool_growth_per_s"] * bed.spool_radius_mm
+                                          / bed.turn_hz)
+        if values.get("coulomb_rad_s2", 0) > 0 and "ring_hz" not in values:
+            raise CranktrackError("coulomb_rad_s2 on the spool needs return_spring_hz: dry "
+                                  "friction acts through the crank's inertia")
+        return replace(bed, **values)
+
     def motion(self, t_s: ArrayLike) -> Motion:
         t = np.asarray(t_s, dtype=float)
-        d = self.base.drive
-        if self.effects.get("wire_stretch_mm", 0) > 0:
-            # A stretching wire gives θ only: ω and α by central differences of θ(t)
-            # (h = 0.1 ms), exact enough for truth away from the drive's start and stop.
-            h = 1e-4
-            theta, ahead, behind = (self._kinematic(x)[0] for x in (t, t + h, t - h))
-            omega = (ahead - behind) / (2 * h)
-            alpha = (ahead - 2 * theta + behind) / h**2
-            return motion_from_angle(t, theta, omega, alpha, d.L1, d.L2)
-        theta, omega, alpha = self._kinematic(t)
+        bed, d, h = self.bed, self.base.drive, 1e-4
+        theta = bed.theta(t)
+        ahead, behind = bed.theta(t + h), bed.theta(np.maximum(t - h, 0.0))
+        step = t + h - np.maximum(t - h, 0.0)
+        omega = (ahead - behind) / step
+        alpha = (ahead - 2 * theta + behind) / h**2
         return motion_from_angle(t, theta, omega, alpha, d.L1, d.L2)
-
-    def _kinematic(self, t: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-        d, e = self.base.drive, self.effects
-        return spool_motion(
-            d, t, slack_mm=e.get("slack_mm", 0.0), growth_per_s=e.get("spool_growth_per_s", 0.0),
-            ring_hz=e.get("return_spring_hz", 0.0), ring_zeta=e.get("return_spring_zeta", 0.1),
-            stretch_mm=e.get("wire_stretch_mm", 0.0))
 
     def extent_mm(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         lo, hi = self.base.extent_mm()

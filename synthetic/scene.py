@@ -197,9 +197,11 @@ def render_scene(
         bed = scenario.bed
         scenario = replace(scenario, bed=replace(
             bed, damping_Nms_rad=bed.damping_Nms_rad + effects["damping_Nms_rad"]))
-    if "coulomb_rad_s2" in effects:
+    if "coulomb_rad_s2" in effects and isinstance(scenario, SpoolScenario):
+        physical["coulomb_rad_s2"] = effects["coulomb_rad_s2"]
+    elif "coulomb_rad_s2" in effects:
         if not isinstance(scenario, FreeScenario):
-            raise CranktrackError("coulomb_rad_s2 applies to the free scenario")
+            raise CranktrackError("coulomb_rad_s2 applies to the free and spool scenarios")
         scenario = replace(scenario, dynamics=replace(scenario.dynamics,
                                                       coulomb=effects["coulomb_rad_s2"]))
     if physical:

@@ -177,9 +177,9 @@ def test_coulomb_friction_shrinks_each_swing_by_the_same_angle(tmp_path):
     turning = np.flatnonzero(np.sign(omega[1:]) != np.sign(omega[:-1]))
     amplitude = np.abs(theta[turning] - np.pi / 2)
     np.testing.assert_allclose(-np.diff(amplitude)[:3], 2 * fc / k_l, rtol=0.02)
-    # The free scenario takes it as an effect, and only that scenario does.
+    # The free and spool scenarios take it as an effect; the spool only with inertia.
     assert parse_effects(["coulomb_rad_s2=0.5"]) == {"coulomb_rad_s2": 0.5}
-    with pytest.raises(CranktrackError, match="free scenario"):
+    with pytest.raises(CranktrackError, match="needs return_spring_hz"):
         render_scene(SpoolScenario(), tmp_path / "never", RenderSettings(),
                      effects={"coulomb_rad_s2": 0.5})
     assert not (tmp_path / "never").exists()  # a refused request leaves nothing behind

@@ -1,0 +1,134 @@
+"""The loop on physics it was not built from: the mechanism of ``synthetic/mechanism.py``.
+
+Truth here is the rig built from its parts (circle crossings, a spool of finite
+radius, a torque balance for an elastic wire, Newton's law for a crank with
+inertia and dry friction), which imports nothing the fitter uses. Effects the
+library has must be named and measured in both physical forms where there are
+two; effects it lacks must come out "unexplained" with the right signature, and
+never under another effect's name.
+"""
+
+import numpy as np
+import pytest
+
+from cranktrack.loop.camera_view import CameraView
+from cranktrack.loop.search import close_loop
+from cranktrack.loop.simulate import spool_theta
+from cranktrack.synthetic.mechanism import SpoolBed, crank_angle, measured_table
+
+T = np.arange(75) / 30.0
+KNOWN = {"start_s": 0.5, "stroke_mm": 15.0, "L1_mm": 160.8, "L2_mm": 72.4, "speed_mm_s": 14.0}
+SIGMA = 0.02
+
+
+def loop(bed: SpoolBed, seed: int = 1, correlation: float = 0.0, **kw) -> dict:
+    table = measured_table(bed.theta(T), T, SIGMA, seed=seed, correlation=correlation)
+    return close_loop(table, KNOWN, **kw).to_dict()
+
+
+def test_the_linkage_by_circle_crossings_is_the_law_of_cosines():
+    # Two ways to the same angle: A–B–C with |AB| = L2, |AC| = L1, |BC| = L3.
+    L3 = np.linspace(95.0, 120.0, 7)
+    cos = (160.8**2 + 72.4**2 - L3**2) / (2 * 160.8 * 72.4)
+    np.testing.assert_allclose(crank_angle(160.8, 72.4, L3), np.arccos(cos), atol=1e-12)
+
+
+@pytest.mark.parametrize("bed, model_values", [
+    (SpoolBed(slack_mm=1.0), {"slack_mm": 1.0}),
+    (SpoolBed(wire_diameter_mm=0.4), {"spool_growth_per_s": SpoolBed(wire_diameter_mm=0.4)
+                                      .growth_per_s}),
+    (SpoolBed(stretch_mm=0.5), {"wire_stretch_mm": 0.5}),
+    (SpoolBed(ring_hz=3.0, ring_zeta=0.1), {"return_spring_hz": 3.0}),
+])
+def test_the_mechanism_and_the_fitters_model_agree_where_the_physics_is_the_same(
+        bed, model_values):
+    base = {"start_s": 0.5, "stroke_mm": 15.0, "L1_mm": 160.8, "L2_mm": 72.4,
+            "L3_0_mm": 105.4, "speed_mm_s": 14.0}
+    model = spool_theta({**base, **model_values}, T)
+    # Written apart, they agree to far below any tracker's noise (the ringing crank's
+    # two integrators to 0.001°); a wrong formula on either side would show here.
+    assert np.degrees(np.max(np.abs(bed.theta(T) - model))) < 2e-3
+
+
+@pytest.mark.parametrize("bed, named, parameter, truth", [
+    (SpoolBed(slack_mm=1.0), "slack_mm", "slack_mm", 1.0),  # slack as lost stroke
+    (SpoolBed(delay_s=0.05), "time_offset_s", "time_offset_s", 0.05),  # ... as a pure delay
+    (SpoolBed(wire_diameter_mm=0.4), "spool_growth_per_s", "spool_growth_per_s",
+     SpoolBed(wire_diameter_mm=0.4).growth_per_s),
+    (SpoolBed(stretch_mm=0.5), "wire_stretch_mm", "wire_stretch_mm", 0.5),
+    (SpoolBed(ring_hz=3.0), "return_spring_hz", "return_spring_hz", 3.0),
+    (SpoolBed(ring_hz=8.0, ring_zeta=0.05), "return_spring_hz", "return_spring_hz", 8.0),
+])
+def test_an_effect_in_the_library_is_named_alone_and_measured(bed, named, parameter, truth):
+    report = loop(bed, correlation=0.5)
+    assert report["effects"] == [named]
+    p = report["parameters"][parameter]
+    assert abs(p["value"] - truth) <= max(0.05 * truth, 3 * p["sigma"]), p
+    assert report["rmse_after_deg"] < 1.5 * SIGMA
+
+
+@pytest.mark.parametrize("bed", [
+    SpoolBed(eccentricity=0.15),  # under one spool turn: a bump, not yet a ripple
+    SpoolBed(eccentricity=0.15, spool_radius_mm=1.0),
+    SpoolBed(eccentricity=0.05, spool_radius_mm=0.7),
+    SpoolBed(dead_band_deg=1.5),
+    SpoolBed(ring_hz=3.0, coulomb_rad_s2=2.0),
+], ids=["eccentric-spool", "eccentric-small-spool", "eccentric-smaller-spool", "dead-band",
+        "coulomb"])
+def test_an_effect_outside_the_library_is_unexplained_never_misnamed(bed):
+    report = loop(bed)
+    assert report["effects"] == []
+    assert report["unexplained"].startswith("the residual stays structured")
+    assert report["rmse_after_deg"] > 1.5 * SIGMA  # nothing soaked it up quietly
+
+
+@pytest.mark.parametrize("radius, eccentricity", [(1.0, 0.15), (0.7, 0.05)])
+def test_an_eccentric_spool_is_described_as_a_ripple_locked_to_the_drive(radius, eccentricity):
+    bed = SpoolBed(eccentricity=eccentricity, spool_radius_mm=radius)
+    shape = loop(bed)["leftover"]["shapes"][0]
+    assert shape["kind"] == "periodic"
+    assert shape["hz"] == pytest.approx(bed.turn_hz, rel=0.1)  # once per spool turn
+    assert shape["while_moving_only"]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_correlated_noise_alone_names_nothing(seed):
+    assert loop(SpoolBed(), seed=seed, correlation=0.6)["effects"] == []
+
+
+def _view() -> CameraView:
+    H = np.array([[0.5, 0.0, -40.0], [0.0, -0.5, 60.0], [0.0, 0.0, 1.0]])  # px → mm
+    Hi = np.linalg.inv(H)
+
+    def apply(M, p):
+        h = p @ M[:, :2].T + M[:, 2]
+        return h[:, :2] / h[:, 2:]
+
+    return CameraView(lambda p: apply(H, p), lambda p: apply(Hi, p), (480, 270),
+                      np.array([80.0, 120.0]), np.array([401.6, 120.0]), 1.0)
+
+
+def test_lens_and_tilt_are_vetoed_while_the_rigid_crank_does_not_bend():
+    bed = SpoolBed(slack_mm=1.0)
+    table = measured_table(bed.theta(T), T, SIGMA, seed=1)
+    report = close_loop(table, KNOWN, view=_view()).to_dict()
+    camera = [c for c in report["candidates"] if c["name"] in ("lens_edge_pct",
+                                                                "tilt_vertical_deg")]
+    assert camera and all("does not bend" in c["veto"] for c in camera)
+    assert not set(report["effects"]) & {"lens_edge_pct", "tilt_vertical_deg"}
+    # Bend the crank with θ, as a lens would, and the veto lifts.
+    bent = table.assign(L2_mm=72.4 + 0.05 * (table["theta_deg"] - table["theta_deg"].mean()))
+    report = close_loop(bent, KNOWN, view=_view()).to_dict()
+    assert report["camera_effect_suspected"]
+    assert not any(c["veto"].startswith("the rigid crank") for c in report["candidates"])
+
+
+def test_a_readout_longer_than_a_frame_is_not_plausible():
+    # A 20 ms dead time: a rolling shutter would need B read 69 ms after A to mimic it,
+    # longer than the 33 ms between frames, which no camera does.
+    table = measured_table(SpoolBed(delay_s=0.02).theta(T), T, SIGMA, seed=1)
+    report = close_loop(table, KNOWN, view=_view()).to_dict()
+    readout = next(c for c in report["candidates"] if c["name"] == "readout_s")
+    assert abs(readout["parameters"]["readout_s"]["value"]) > 1 / 30
+    assert not readout["plausible"] and not readout["accepted"]
+    assert report["effects"] == ["time_offset_s"]
