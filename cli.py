@@ -273,7 +273,7 @@ def _synth_board(args: argparse.Namespace) -> int:
 def _track(args: argparse.Namespace, video: Path, out: Path):
     from .calibration.known_length import parse_known_length
     from .pipeline import track_run
-    from .tracker.markers import DEFAULT_MARKERS, MarkerSpec
+    from .tracker.markers import DEFAULT_MARKERS, parse_markers
 
     known = parse_known_length(args.known_length) if args.known_length else None
     plane = None
@@ -283,14 +283,7 @@ def _track(args: argparse.Namespace, video: Path, out: Path):
         plane = load_calibration(args.calibration)
     specs = DEFAULT_MARKERS
     if getattr(args, "marker", None):
-        given = {}
-        for item in args.marker:
-            name, sep, colour = item.partition("=")
-            if not sep or not name.strip():
-                raise CranktrackError(f"--marker {item!r} is not NAME=COLOUR, e.g. B=red")
-            given[name.strip()] = MarkerSpec.from_colour(name.strip(), colour)
-        specs = tuple(given.get(s.name, s) for s in DEFAULT_MARKERS) + tuple(
-            v for k, v in given.items() if k not in {s.name for s in DEFAULT_MARKERS})
+        specs = parse_markers(args.marker)
     with _progress("track") as bar:
         def start(total: int | None) -> None:
             bar.total = total
@@ -714,9 +707,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("video", help="video file, or a folder of numbered images")
     p.add_argument("--out", required=True, help="run folder to write")
     _add_track_options(p)
-    p.add_argument("--marker", action="append", metavar="NAME=COLOUR",
-                   help="marker colour (red, green, blue, yellow, … or a hue in degrees); "
-                        "repeat per marker. Defaults: A=green B=red C=blue")
+    p.add_argument("--marker", action="append", metavar="NAME=COLOUR[@X,Y]",
+                   help="a marker and its colour: red, green, blue, yellow, …, a hue in "
+                        "degrees, #RRGGBB, or white/black (found by contrast); @X,Y says "
+                        "where it is at first (px). Repeat per marker. Naming only A, B or "
+                        "C recolours them; naming any other tracks exactly the named ones. "
+                        "Defaults: A=green B=red C=blue")
     p.add_argument("--calibration", metavar="PLANE.json",
                    help="plane calibration from `cranktrack calibrate plane`; with it, "
                         "--known-length is only checked")

@@ -1,14 +1,17 @@
-"""Colour markers: which pixels belong to which marker, and where its centre is.
+"""Markers: which pixels belong to which marker, and where its centre is.
 
-This first detector thresholds hue, saturation and value (OpenCV's 8-bit HSV:
-hue 0–179 in 2° steps), keeps the largest blob of each colour and takes the
-centroid of its mask. Red wraps around hue 0, so hue ranges are intervals on
-the hue circle.
+A colour marker is found by thresholding hue, saturation and value (OpenCV's
+8-bit HSV: hue 0–179 in 2° steps); red wraps around hue 0, so hue ranges are
+intervals on the hue circle. A white or black marker (a ball, a sticker, a dot
+of paint) has no hue: it is found by its contrast with its surroundings, the
+brightness left after a morphological top-hat (white) or black-hat (black)
+larger than the marker, among pixels of little saturation.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import colorsys
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -23,13 +26,23 @@ COLOUR_HUES_DEG = {
 }
 
 
+#: How much brighter (darker) than its surroundings a white (black) marker is, DN.
+TONE_CONTRAST_DN = 40
+#: The surroundings a luminance marker is compared with: a disc wider than any marker
+#: (a 31 px one leaves the marker standing out; a wider background is taken away).
+_TONE_KERNEL = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (31, 31))
+
+
 @dataclass(frozen=True)
 class MarkerSpec:
     """A marker to find: its name and colour window.
 
     ``hue_deg`` ± ``hue_tol_deg`` on the hue circle, saturation and value at
     least ``min_saturation`` and ``min_value`` (0–1), and a blob of at least
-    ``min_area_px`` pixels.
+    ``min_area_px`` pixels. ``tone`` ``"white"`` or ``"black"`` makes it a
+    luminance marker instead: brighter (darker) than its surroundings by
+    :data:`TONE_CONTRAST_DN`, with saturation at most ``min_saturation``; the hue
+    is then unused.
     """
 
     name: str
@@ -38,26 +51,51 @@ class MarkerSpec:
     min_saturation: float = 0.35
     min_value: float = 0.25
     min_area_px: int = 6
+    tone: str = ""
+    #: Where the marker is when first sought (px): among several blobs of its colour the
+    #: nearest is taken, as a user clicking it would (``--marker ball=white@131,208``).
+    near_px: tuple[float, float] | None = None
 
     @classmethod
     def from_colour(cls, name: str, colour: str) -> MarkerSpec:
-        """A spec from a colour name (``red``, ``green``, …) or a hue in degrees."""
+        """A spec from a colour name (``red``, ``green``, …, ``white``, ``black``), a hue
+        in degrees, or ``#RRGGBB`` (a colour of little saturation is white or black)."""
         key = colour.strip().lower()
         if key in COLOUR_HUES_DEG:
             return cls(name, COLOUR_HUES_DEG[key])
+        if key in ("white", "black"):
+            return cls(name, 0.0, min_saturation=0.35, tone=key)
+        if key.startswith("#"):
+            try:
+                r, g, b = (int(key[i:i + 2], 16) / 255.0 for i in (1, 3, 5))
+                if len(key) != 7:
+                    raise ValueError
+            except ValueError:
+                raise CranktrackError(f"marker {name}'s colour {colour.strip()!r} is not "
+                                      "#RRGGBB (six hex digits)") from None
+            h, sat, v = colorsys.rgb_to_hsv(r, g, b)
+            if sat < 0.25:  # too grey for a hue: a luminance marker
+                return cls.from_colour(name, "white" if v >= 0.5 else "black")
+            return cls(name, 360.0 * h)
         try:
             hue = float(key)
         except ValueError:
             known = ", ".join(COLOUR_HUES_DEG)
             raise CranktrackError(
-                f"unknown marker colour {colour!r} for {name}; use one of {known} or a hue "
-                "in degrees") from None
+                f"unknown marker colour {colour!r} for {name}; use one of {known}, white, "
+                "black, a hue in degrees or #RRGGBB") from None
         if not 0.0 <= hue <= 360.0:
             raise CranktrackError(f"marker {name}'s hue {colour.strip()} is outside 0–360°")
         return cls(name, hue % 360.0)
 
     def mask(self, hsv: NDArray[np.uint8]) -> NDArray[np.uint8]:
         """Pixels of this colour (255) in an OpenCV 8-bit HSV image."""
+        if self.tone:
+            value = np.ascontiguousarray(hsv[..., 2])
+            op = cv2.MORPH_TOPHAT if self.tone == "white" else cv2.MORPH_BLACKHAT
+            contrast = cv2.morphologyEx(value, op, _TONE_KERNEL)
+            grey = hsv[..., 1] <= round(self.min_saturation * 255)
+            return ((contrast >= TONE_CONTRAST_DN) & grey).astype(np.uint8) * 255
         s_min = round(self.min_saturation * 255)
         v_min = round(self.min_value * 255)
         lo = (self.hue_deg - self.hue_tol_deg) / 2.0  # OpenCV hue units (2°)
@@ -78,6 +116,40 @@ DEFAULT_MARKERS: tuple[MarkerSpec, ...] = (
     MarkerSpec.from_colour("B", "red"),
     MarkerSpec.from_colour("C", "blue"),
 )
+
+
+def parse_markers(items: list[str]) -> tuple[MarkerSpec, ...]:
+    """Markers from ``NAME=COLOUR[@X,Y]`` items (see :meth:`MarkerSpec.from_colour`).
+
+    Naming only the crank-slider's A, B or C changes their colours and keeps the
+    others at their defaults; naming any other marker tracks exactly the named
+    ones, so a ball or a cart is not searched for A, B and C as well.
+    """
+    given: dict[str, MarkerSpec] = {}
+    for item in items:
+        name, sep, colour = item.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise CranktrackError(f"--marker {item!r} is not NAME=COLOUR, e.g. B=red or "
+                                  "ball=white@131,208")
+        colour, at, where = colour.partition("@")
+        spec = MarkerSpec.from_colour(name, colour)
+        if at:
+            try:
+                x, y = (float(v) for v in where.split(","))
+            except ValueError:
+                raise CranktrackError(f"--marker {item!r}: the place after @ is X,Y in pixels, "
+                                      "e.g. @131,208") from None
+            if not (np.isfinite(x) and np.isfinite(y)):
+                raise CranktrackError(f"--marker {item!r}: the place must be finite pixels")
+            spec = replace(spec, near_px=(x, y))
+        if name in given:
+            raise CranktrackError(f"marker {name} is given twice")
+        given[name] = spec
+    defaults = {s.name for s in DEFAULT_MARKERS}
+    if given and set(given) <= defaults:
+        return tuple(given.get(s.name, s) for s in DEFAULT_MARKERS)
+    return tuple(given.values()) or DEFAULT_MARKERS
 
 
 @dataclass(frozen=True)
@@ -138,16 +210,27 @@ def choose_blob(blobs: list[Blob], expected_area: float | None = None,
     return max(good, key=lambda b: b.area), "ok"
 
 
+#: A frame whose median is darker than this (DN) is not white-balanced.
+DARK_FRAME_DN = 40.0
+
+
 def white_balance_gains(rgb: NDArray[np.uint8]) -> NDArray[np.float32]:
     """Per-channel gains that make the frame's median colour grey.
 
     The board and links fill most of a frame and are near-neutral, so a
     colour cast of the light shows in the median; dividing it out restores
     the hues the default colour windows expect. Sub-sampled for speed.
+
+    A dark frame has no such board: its median is the sensor's noise, and the
+    gains it gives (6× on one channel on a black table) turn every hue. Below a
+    median of :data:`DARK_FRAME_DN` the frame is left as it is, and gains are
+    bounded to 0.5–2 always.
     """
     med = np.median(rgb[::4, ::4].reshape(-1, 3), axis=0).astype(np.float32)
+    if float(med.mean()) < DARK_FRAME_DN:
+        return np.ones(3, np.float32)
     med = np.maximum(med, 1.0)
-    return (med.mean() / med).astype(np.float32)
+    return np.clip(med.mean() / med, 0.5, 2.0).astype(np.float32)
 
 
 def balanced_hsv(rgb: NDArray[np.uint8], gains: NDArray[np.float32] | None) -> NDArray[np.uint8]:
@@ -171,10 +254,9 @@ def acquire(hsv: NDArray[np.uint8], spec: MarkerSpec, expected_area: float | Non
     can say that the choice was a guess.
     """
     blobs: list[Blob] = []
-    for extra in (0.0, 0.15, 0.3):
+    for extra in ((0.0,) if spec.tone else (0.0, 0.15, 0.3)):
         floor = min(spec.min_saturation + extra, 0.9)
-        blobs += find_blobs(hsv, MarkerSpec(spec.name, spec.hue_deg, spec.hue_tol_deg, floor,
-                                            spec.min_value, spec.min_area_px))
+        blobs += find_blobs(hsv, replace(spec, min_saturation=floor))
     blob, status = choose_blob(blobs, expected_area, near)
     rivals: list[Blob] = []
     if blob is not None:
@@ -197,6 +279,8 @@ def learn_spec(spec: MarkerSpec, hsv: NDArray[np.uint8], centre: tuple[float, fl
     so blurred edges still count. ``hsv`` is an OpenCV 8-bit HSV patch whose
     top-left pixel is at (x0, y0).
     """
+    if spec.tone:
+        return spec  # a luminance marker has no hue to learn
     h, w = hsv.shape[:2]
     yy, xx = np.mgrid[0:h, 0:w]
     inner = (xx + x0 - centre[0]) ** 2 + (yy + y0 - centre[1]) ** 2 <= (0.6 * radius) ** 2

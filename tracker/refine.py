@@ -43,6 +43,9 @@ CHROMA_BASIS = np.array(
 
 #: The same basis in double precision, for the compiled coverage kernel.
 _BASIS64 = CHROMA_BASIS.astype(np.float64)
+#: A white or black marker has no chroma: it is unmixed on luminance alone (the
+#: second axis is zero, so the kernel's plane collapses to a line).
+LUMA_BASIS = np.array([[1.0, 1.0, 1.0], [0.0, 0.0, 0.0]]) / np.sqrt(3.0)
 
 
 def chroma(rgb: NDArray) -> NDArray[np.float32]:
@@ -385,7 +388,7 @@ def fit_disc_cells(alpha: NDArray, x0: int, y0: int, pixel_fit: Centre) -> Centr
 
 
 def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, float],
-                   radius: float, marker: NDArray | None = None
+                   radius: float, marker: NDArray | None = None, luminance: bool = False
                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Coverage α by unmixing chroma against a per-pixel background.
 
@@ -402,12 +405,14 @@ def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float
 
     Returns ``(alpha, marker_chroma_seen)``: the second is the median chroma
     of the middle of the patch, for following slow colour drift.
+    ``luminance`` unmixes brightness instead of chroma (a white or black marker).
     """
     known = marker is not None
     m = np.asarray(marker if known else (0.0, 0.0), np.float64)
     # The patch goes in as it is (a uint8 view of the frame): the kernel reads it
     # pixel by pixel, so a float copy per marker per frame would be wasted.
-    alpha, seen = _coverage_compiled(np.asarray(patch_rgb), _BASIS64,
+    alpha, seen = _coverage_compiled(np.asarray(patch_rgb),
+                                     LUMA_BASIS if luminance else _BASIS64,
                                      float(centre[0] - x0), float(centre[1] - y0),
                                      float(radius), m, known)
     return alpha, seen

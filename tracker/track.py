@@ -22,6 +22,7 @@ from ..errors import CranktrackError
 from ..tables import tracker_columns
 from .markers import (
     DEFAULT_MARKERS,
+    Blob,
     MarkerSpec,
     acquire,
     balanced_hsv,
@@ -139,7 +140,8 @@ def patch_around(image: Frame | NDArray, cx: float, cy: float, half: float
 
 def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius: float,
            marker: NDArray | None = None, init: tuple[float, ...] | None = None,
-           edges: bool | None = None) -> tuple[Centre, NDArray | None]:
+           edges: bool | None = None, luminance: bool = False
+           ) -> tuple[Centre, NDArray | None]:
     """Sub-pixel centre of a marker near ``guess`` (see :mod:`.refine`).
 
     Chroma unmixing against a ring background, then a blurred-disc fit. A
@@ -152,17 +154,19 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     full-resolution chroma (:attr:`Frame.full_chroma`), not for arrays. On
     the decoder's own 4:2:0 planes the centre and σ are refitted at the
     chroma's resolution instead (:func:`.refine.fit_disc_cells`).
+    ``luminance`` unmixes brightness instead of chroma (a white or black marker:
+    luminance is stored at full resolution, so no chroma-cell refit).
     Returns the centre and the chroma seen in its middle.
     """
     patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
-    alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker)
+    alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance)
     c = None
     if init is None:
         c = weighted_centroid(alpha, x0, y0, guess, radius, noise_alpha=0.05)
         if not c.ok:
             return c, seen
         guess = (c.x, c.y)
-        alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker)
+        alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance)
     if edges is None:
         # On 4:2:0 H.264 a moving marker's luminance edge is off by 2–3× what the
         # fit's residual says (bench/luminance.py): only full-chroma frames use it.
@@ -170,7 +174,8 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     # On the decoder's 4:2:0 planes the centre is refitted on the chroma cells
     # below, so the pixel fit need only be close (its shape and residual are for
     # the checks): 0.02 px instead of 0.001 saves an iteration or two.
-    cells = not edges and isinstance(image, Frame) and image.layout == "i420"
+    cells = (not edges and not luminance and isinstance(image, Frame)
+             and image.layout == "i420")
     tol = 0.02 if cells else 1e-3
     fit = fit_disc(alpha, x0, y0, guess, radius, init=init, tol_px=tol)
     for _ in range(3):
@@ -180,7 +185,7 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
             break
         guess = (fit.x, fit.y)
         patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
-        alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker)
+        alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance)
         fit = fit_disc(alpha, x0, y0, guess, radius, init=fit.params, tol_px=tol)
     if fit.ok and edges:
         fit = fit_edges(patch, alpha, x0, y0, fit, radius) or fit
@@ -192,9 +197,15 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     return Centre(c.x, c.y, c.sigma, c.radius, True), seen
 
 
+def _honest(c: Centre) -> bool:
+    """A centre whose σ says something: finite, and smaller than the marker itself
+    (a σ as large as the marker locates nothing and is a gap, not a point)."""
+    return bool(np.isfinite(c.sigma) and 0 < c.sigma < c.radius)
+
+
 def _plausible(c: Centre, guess: tuple[float, float], radius: float) -> bool:
     """A fit from a prediction that found the marker's colour, near the prediction."""
-    return c.ok and GAIN_RANGE[0] < c.gain < GAIN_RANGE[1] and np.hypot(
+    return c.ok and _honest(c) and GAIN_RANGE[0] < c.gain < GAIN_RANGE[1] and np.hypot(
         c.x - guess[0], c.y - guess[1]) < radius
 
 
@@ -211,7 +222,8 @@ def _locate(frame: Frame, state: _MarkerState, t: float, hsv_cache: dict
             # Following: refine straight from the prediction; the colour search
             # is only needed when that fails (fast motion, occlusion, a jump).
             if r + 2 <= pred[0] <= w - r - 3 and r + 2 <= pred[1] <= h - r - 3:
-                centre, seen = refine(frame, pred, r, state.marker, init=state.shape)
+                centre, seen = refine(frame, pred, r, state.marker, init=state.shape,
+                                      luminance=bool(state.spec.tone))
                 if _plausible(centre, pred, r):
                     if not state.whole(centre):
                         return None, "partly_covered"
@@ -222,36 +234,78 @@ def _locate(frame: Frame, state: _MarkerState, t: float, hsv_cache: dict
             hsv = balanced_hsv(patch, hsv_cache.get("gains"))
             blob, status = choose_blob(find_blobs(hsv, state.spec, x0, y0), state.area, pred)
     if blob is None:
-        # Lost (or never seen): search the whole frame, white-balanced.
-        if "full" not in hsv_cache:
-            if hsv_cache.get("gains") is None:
-                hsv_cache["gains"] = white_balance_gains(frame.rgb)
-            hsv_cache["full"] = balanced_hsv(frame.rgb, hsv_cache["gains"])
-        blob, full_status, rivals = acquire(hsv_cache["full"], state.spec, state.area, pred)
+        blob, full_status = _full_frame_blob(frame, state, t, hsv_cache, pred)
         if blob is None:
             return None, status if status == "out_of_view" else full_status
-        if rivals and pred is None and not state.notes:
-            where = "; ".join(f"({r.x:.0f}, {r.y:.0f})" for r in rivals[:3])
-            state.notes.append(
-                f"marker {state.spec.name}: {1 + len(rivals)} blobs of its colour and size at "
-                f"t = {t:.3f} s; following the one at ({blob.x:.0f}, {blob.y:.0f}), not "
-                f"{where}; if that is the wrong one, cover or recolour the others")
-    radius = state.radius or blob.radius
-    if not state.learned:
-        # Learning follows a full-frame search, whose white-balanced HSV is at hand.
-        hsv_patch, x0, y0 = patch_around(hsv_cache["full"], blob.x, blob.y, radius + 3)
-        state.spec = learn_spec(state.spec, hsv_patch, (blob.x, blob.y), radius, x0, y0)
-        state.learned = True
-    centre, seen = refine(frame, (blob.x, blob.y), radius, state.marker)
-    if not centre.ok or (state.marker is not None
-                         and not GAIN_RANGE[0] < centre.gain < GAIN_RANGE[1]):
-        return None, "refine_failed"
-    if not state.whole(centre):
-        return None, "partly_covered"
+    centre, seen, failure = _refine_blob(frame, state, blob, hsv_cache)
+    if failure and pred is not None:
+        # The blob nearest the prediction was not the marker (a hand, a reflection):
+        # the next nearest of its colour and size in the whole frame may be.
+        for other in _other_blobs(frame, state, hsv_cache, pred, blob):
+            centre, seen, failure = _refine_blob(frame, state, other, hsv_cache)
+            if not failure:
+                break
+    if failure:
+        return None, failure
     if state.radius is None:
         state.radius = centre.radius
     state.remember(centre, seen)
     return centre, "ok"
+
+
+def _full_frame_blob(frame: Frame, state: _MarkerState, t: float, hsv_cache: dict,
+                     pred: tuple[float, float] | None) -> tuple[Blob | None, str]:
+    """The marker's blob in the whole frame, white-balanced (lost, or never seen)."""
+    if "full" not in hsv_cache:
+        if hsv_cache.get("gains") is None:
+            hsv_cache["gains"] = white_balance_gains(frame.rgb)
+        hsv_cache["full"] = balanced_hsv(frame.rgb, hsv_cache["gains"])
+    near = pred if pred is not None else state.spec.near_px
+    blob, status, rivals = acquire(hsv_cache["full"], state.spec, state.area, near)
+    if blob is not None and pred is None and near is not None and np.hypot(
+            blob.x - near[0], blob.y - near[1]) > 4 * blob.radius + 20:
+        return None, "not_found"  # not yet where the user said it is
+    if blob is not None and rivals and pred is None and not state.notes:
+        where = "; ".join(f"({r.x:.0f}, {r.y:.0f})" for r in rivals[:3])
+        state.notes.append(
+            f"marker {state.spec.name}: {1 + len(rivals)} blobs of its colour and size at "
+            f"t = {t:.3f} s; following the one at ({blob.x:.0f}, {blob.y:.0f}), not "
+            f"{where}; if that is the wrong one, cover or recolour the others, or say "
+            f"where it is: --marker {state.spec.name}=COLOUR@X,Y")
+    return blob, status
+
+
+def _other_blobs(frame: Frame, state: _MarkerState, hsv_cache: dict,
+                 pred: tuple[float, float], tried: Blob, most: int = 3) -> list[Blob]:
+    """Blobs of the marker's colour, shape and size in the whole frame, nearest to the
+    prediction first, other than the one ``tried``."""
+    _full_frame_blob(frame, state, 0.0, hsv_cache, pred)  # fills the frame's HSV
+    good = [b for b in find_blobs(hsv_cache["full"], state.spec) if b.disc_like()
+            and (not state.area or 0.3 * state.area <= b.area <= 3.0 * state.area)
+            and np.hypot(b.x - tried.x, b.y - tried.y) > 1.0]
+    good.sort(key=lambda b: (b.x - pred[0]) ** 2 + (b.y - pred[1]) ** 2)
+    return good[:most]
+
+
+def _refine_blob(frame: Frame, state: _MarkerState, blob: Blob, hsv_cache: dict
+                 ) -> tuple[Centre | None, NDArray | None, str]:
+    """The refined centre on a blob, what it saw, and why it failed ("" if it did not)."""
+    radius = state.radius or blob.radius
+    if not state.learned:
+        # Learning follows a full-frame search, whose white-balanced HSV is at hand.
+        if "full" not in hsv_cache:
+            hsv_cache["full"] = balanced_hsv(frame.rgb, hsv_cache.get("gains"))
+        hsv_patch, x0, y0 = patch_around(hsv_cache["full"], blob.x, blob.y, radius + 3)
+        state.spec = learn_spec(state.spec, hsv_patch, (blob.x, blob.y), radius, x0, y0)
+        state.learned = True
+    centre, seen = refine(frame, (blob.x, blob.y), radius, state.marker,
+                          luminance=bool(state.spec.tone))
+    if not centre.ok or not _honest(centre) or (
+            state.marker is not None and not GAIN_RANGE[0] < centre.gain < GAIN_RANGE[1]):
+        return None, None, "refine_failed"
+    if not state.whole(centre):
+        return None, None, "partly_covered"
+    return centre, seen, ""
 
 
 @dataclass

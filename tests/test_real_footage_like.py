@@ -1,0 +1,113 @@
+"""Frames like the public clips that defeated the tracker, drawn here without them.
+
+A white ball on black (Tracker's BallToss), a dark table whose median colour
+would blow up the white balance, two blobs of one colour where the user says
+which is the marker, and the ``--marker`` forms people type. The drawing is the
+truth: each pixel is coloured by the fraction a disc covers (8×8 sub-samples),
+sharing no code with the tracker.
+"""
+
+import numpy as np
+import pytest
+
+from cranktrack.errors import CranktrackError
+from cranktrack.tracker.markers import (
+    DEFAULT_MARKERS,
+    MarkerSpec,
+    parse_markers,
+    white_balance_gains,
+)
+from cranktrack.tracker.track import TrackerState, locate
+
+
+def draw(discs: list[tuple[float, float, float, tuple[float, float, float]]],
+         background=(12.0, 12.0, 12.0), size=(240, 180), noise_dn=1.5, seed=0,
+         extra=None) -> np.ndarray:
+    """RGB uint8: discs (x, y, radius px, RGB) by area coverage over ``background``;
+    ``extra(image)`` may paint more (a bar) before the noise."""
+    w, h = size
+    sub = 8
+    y, x = (np.mgrid[0:h * sub, 0:w * sub] + 0.5) / sub - 0.5
+    image = np.zeros((h, w, 3)) + np.array(background)
+    for cx, cy, r, rgb in discs:
+        cover = ((x - cx) ** 2 + (y - cy) ** 2 < r * r).reshape(h, sub, w, sub).mean((1, 3))
+        image += cover[..., None] * (np.array(rgb) - image)
+    if extra is not None:
+        extra(image)
+    image += np.random.default_rng(seed).normal(0.0, noise_dn, image.shape)
+    return np.clip(image.round(), 0, 255).astype(np.uint8)
+
+
+WHITE = (235.0, 232.0, 225.0)
+
+
+def test_a_white_ball_on_black_is_found_by_its_contrast_beside_a_bright_bar():
+    def stick(image):  # a metre stick: a tall bright bar, not a marker
+        image[20:160, 150:158] = (230.0, 225.0, 200.0)
+
+    errors = []
+    for seed, (x, y) in enumerate([(60.3, 90.6), (61.8, 88.2), (100.45, 40.1)]):
+        image = draw([(x, y, 4.5, WHITE)], extra=stick, seed=seed)
+        found = locate(image, parse_markers(["ball=white"])).set_index("marker")
+        assert found.at["ball", "status"] == "ok"
+        errors += [found.at["ball", "x_px"] - x, found.at["ball", "y_px"] - y]
+    assert np.max(np.abs(errors)) < 0.1, errors
+
+
+def test_a_black_dot_on_a_pale_board_is_found():
+    image = draw([(80.4, 70.7, 5.0, (20.0, 20.0, 22.0))], background=(210.0, 205.0, 200.0))
+    found = locate(image, parse_markers(["dot=#101010"])).set_index("marker")
+    assert found.at["dot", "status"] == "ok"
+    assert abs(found.at["dot", "x_px"] - 80.4) < 0.1 and abs(found.at["dot", "y_px"] - 70.7) < 0.1
+
+
+def test_a_dark_frame_is_not_white_balanced_into_other_hues():
+    # Black table, median colour (6, 12, 0): dividing by it gave gains of 6× on blue.
+    image = draw([(60.0, 90.0, 7.0, (30.0, 60.0, 200.0)), (170.0, 80.0, 7.0, (140.0, 80.0, 40.0))],
+                 background=(6.0, 12.0, 0.0), noise_dn=0.5)
+    np.testing.assert_allclose(white_balance_gains(image), 1.0)
+    found = locate(image, parse_markers(["puck=blue"])).set_index("marker")
+    assert found.at["puck", "status"] == "ok"
+    assert abs(found.at["puck", "x_px"] - 60.0) < 0.2
+    # A lit frame with a cast is still balanced, within 0.5–2 per channel.
+    lit = draw([], background=(200.0, 150.0, 90.0))
+    gains = white_balance_gains(lit)
+    assert 0.5 <= gains.min() and gains.max() <= 2.0 and gains[2] > 1.2
+
+
+def test_the_user_says_which_of_two_same_colour_blobs_is_the_marker():
+    image = draw([(50.0, 60.0, 5.0, WHITE), (180.0, 120.0, 5.0, WHITE)])
+    for hint, x in (("@52,58", 50.0), ("@175,125", 180.0)):
+        found = locate(image, parse_markers([f"ball=white{hint}"])).set_index("marker")
+        assert abs(found.at["ball", "x_px"] - x) < 0.2
+    # Nothing near the place given: not found there, rather than another blob.
+    found = locate(image, parse_markers(["ball=white@120,20"])).set_index("marker")
+    assert found.at["ball", "status"] == "not_found"
+
+
+def test_a_ball_that_jumps_past_a_bright_hand_is_followed():
+    state = TrackerState.start(parse_markers(["ball=white@40,140"]))
+    path = [(40.0, 140.0), (85.0, 95.0), (130.0, 60.0), (175.0, 45.0)]
+    hand = (54.0, 157.0, 9.0, (200.0, 160.0, 140.0))  # stays where the ball left it
+    for i, (x, y) in enumerate(path):
+        found = locate(draw([hand, (x, y, 4.5, WHITE)], seed=i), state=state, t_s=i / 15)
+        assert found.loc[0, "status"] == "ok", (i, found)
+        assert abs(found.loc[0, "x_px"] - x) < 0.2 and abs(found.loc[0, "y_px"] - y) < 0.2
+
+
+def test_markers_as_people_type_them():
+    assert parse_markers([]) == DEFAULT_MARKERS
+    # Only A/B/C named: recoloured, the others kept.
+    specs = parse_markers(["B=orange"])
+    assert [s.name for s in specs] == ["A", "B", "C"] and specs[1].hue_deg == 30.0
+    # Any other name: exactly the named ones.
+    specs = parse_markers(["ball=white", "cart=#20c040@10,20"])
+    assert [s.name for s in specs] == ["ball", "cart"]
+    assert specs[0].tone == "white" and specs[1].near_px == (10.0, 20.0)
+    assert specs[1].hue_deg == pytest.approx(132.0, abs=0.5)  # g max, (b − r)/(g − r) = 0.2
+    assert MarkerSpec.from_colour("x", "#f0f0f0").tone == "white"
+    assert MarkerSpec.from_colour("x", "#202020").tone == "black"
+    for bad in (["ball"], ["=red"], ["ball=#12345"], ["ball=#zzzzzz"], ["ball=white@1"],
+                ["ball=white@a,b"], ["ball=red", "ball=blue"], ["ball=mauve"]):
+        with pytest.raises(CranktrackError):
+            parse_markers(bad)
