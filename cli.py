@@ -319,6 +319,40 @@ def _record(run: Path, spawn: bool, path: Path | None = None) -> Path:
         raise
 
 
+def cmd_inspect(args: argparse.Namespace) -> int:
+    from .report.survey import write_survey_png
+    from .tracker.survey import survey
+    from .tracker.video import open_frames
+
+    video = Path(args.video)
+    frame = None
+    for f in open_frames(video, fps=args.fps).frames():
+        frame = f
+        if f.t_s >= args.at:
+            break
+    if frame is None:
+        raise CranktrackError(f"{video} has no frames")
+    table = survey(frame.rgb)
+    out = Path(args.out) if args.out else video.with_name(video.stem + "_inspect.png")
+    write_survey_png(out, frame.rgb, table)
+    if table.empty:
+        print(f"no compact blob of one colour, white or black in frame {frame.index} "
+              f"(t = {frame.t_s:.3f} s); try another --at")
+    else:
+        rows = [["--marker", "colour", "x px", "y px", "radius px", "shape"]]
+        rows += [[r.marker, r["name"], f"{r.x_px:.0f}", f"{r.y_px:.0f}", f"{r.radius_px:.1f}",
+                  "disc" if r.disc_like else f"strip (aspect {r.aspect:.1f})"]
+                 for _, r in table.iterrows()]
+        print(f"frame {frame.index} (t = {frame.t_s:.3f} s): {len(table)} candidate markers, "
+              "most marker-like first")
+        print(_format_table(rows))
+        picks = " ".join(f"--marker {m}" for m in table["marker"].head(3))
+        print(f"\nrename the ones you want and track them, e.g.:\n  cranktrack track {video} "
+              f"{picks} --out run")
+    print(f"wrote {out}")
+    return 0
+
+
 def cmd_track(args: argparse.Namespace) -> int:
     run = _track(args, Path(args.video), Path(args.out))
     if args.rerun:
@@ -702,6 +736,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="ambient °C (default: the steady temperature at zero current)")
     p.add_argument("--out", help="also write the result as JSON here")
     p.set_defaults(func=cmd_thermal_id)
+
+    p = sub.add_parser("inspect", help="show the candidate markers in one frame of a video and "
+                       "the --marker that follows each")
+    p.add_argument("video", help="video file or folder of images")
+    p.add_argument("--at", type=_non_negative, default=0.0, metavar="SECONDS",
+                   help="time of the frame to inspect (0: the first)")
+    p.add_argument("--fps", type=_positive, help="frame rate of an image folder")
+    p.add_argument("--out", help="PNG to write (default: VIDEO_inspect.png beside the video)")
+    p.set_defaults(func=cmd_inspect)
 
     p = sub.add_parser("track", help="track a video into a run folder")
     p.add_argument("video", help="video file, or a folder of numbered images")

@@ -111,3 +111,32 @@ def test_markers_as_people_type_them():
                 ["ball=white@a,b"], ["ball=red", "ball=blue"], ["ball=mauve"]):
         with pytest.raises(CranktrackError):
             parse_markers(bad)
+
+
+def test_inspect_lists_each_marker_with_a_marker_option_that_tracks_it(tmp_path, capsys):
+    import cv2
+
+    from cranktrack.cli import main
+    from cranktrack.tracker.survey import survey
+
+    image = draw([(60.3, 90.6, 5.0, WHITE), (170.2, 60.4, 6.0, (40.0, 170.0, 60.0))],
+                 background=(20.0, 20.0, 24.0))
+    table = survey(image)
+    picks = {}
+    for _, row in table.iterrows():
+        spec = parse_markers([row.marker])[0]
+        found = locate(image, [spec]).iloc[0]
+        picks[row.colour] = (found.x_px, found.y_px)
+    assert np.hypot(picks["white"][0] - 60.3, picks["white"][1] - 90.6) < 0.2
+    green = [c for c in picks if c not in ("white", "black")
+             and abs((float(c) - 120 + 180) % 360 - 180) <= 30]
+    assert green and np.hypot(picks[green[0]][0] - 170.2, picks[green[0]][1] - 60.4) < 0.2
+    # The command: a folder of frames in, a picture and a ready command out.
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    for i in range(2):
+        cv2.imwrite(str(frames / f"f{i:03d}.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+    assert main(["inspect", str(frames), "--fps", "10", "--out", str(tmp_path / "s.png")]) == 0
+    out = capsys.readouterr().out
+    assert "white@60,91" in out and "cranktrack track" in out
+    assert (tmp_path / "s.png").stat().st_size > 1000
