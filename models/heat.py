@@ -22,6 +22,7 @@ A_s/A_f = 55/70 °C, M_s/M_f = 50/25 °C.
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -185,12 +186,16 @@ def simulate_wire(wire: SMAWire, current: CurrentSteps, t_s: ArrayLike,
     # curve) when cooling. Integrating T alone avoids the chatter an ODE for ξ
     # with an on/off transformation switch would have.
     def branch(T: float, xi_start: float, heating: bool) -> tuple[float, float]:
-        """(ξ, |dξ/dT|) on the active branch."""
-        if heating:
-            curve = float(w.xi_heating(T))
-            return (curve, w._slope(T, w.As_C, w.Af_C)) if curve < xi_start else (xi_start, 0.0)
-        curve = float(w.xi_cooling(T))
-        return (curve, w._slope(T, w.Mf_C, w.Ms_C)) if curve > xi_start else (xi_start, 0.0)
+        """(ξ, |dξ/dT|) on the active branch: eqs. 4.3–4.6 in scalar arithmetic (the
+        integrator calls this millions of times in a fit, where numpy's per-call cost
+        on one number was most of the time)."""
+        lo, hi = (w.As_C, w.Af_C) if heating else (w.Mf_C, w.Ms_C)
+        x = min(max((T - lo) / (hi - lo), 0.0), 1.0)
+        curve = 0.5 * (1.0 + math.cos(math.pi * x))
+        if (curve < xi_start) if heating else (curve > xi_start):
+            slope = math.pi / (2.0 * (hi - lo)) * math.sin(math.pi * x) if 0 < x < 1 else 0.0
+            return curve, slope
+        return xi_start, 0.0
 
     def rhs(_t: float, y: NDArray, amps: float, xi_start: float, heating: bool) -> list[float]:
         T = y[0]
