@@ -124,6 +124,14 @@ def camera_theta(theta: NDArray, values: dict[str, float], view: CameraView) -> 
     return np.arctan2(np.abs(u[0] * v[:, 1] - u[1] * v[:, 0]), v @ u)
 
 
+def camera_link_mm(theta: NDArray, values: dict[str, float], view: CameraView) -> NDArray:
+    """The crank length |AB| (mm) the run would measure at true angles ``theta`` (rad)
+    through the camera effects in ``values``: rigid in the plane, bent by the camera."""
+    Bm = view.to_plane(_crank_tip(theta, values, view)[1])
+    Am = view.to_plane(view.A_px[None, :])[0]
+    return np.hypot(*(Bm - Am).T)
+
+
 def with_camera(simulate: Callable, view: CameraView | None) -> Callable:
     """``simulate`` followed by the camera effects, when there are any.
 

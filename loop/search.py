@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from ..errors import CranktrackError
-from .camera_view import CameraView, with_camera
+from .camera_view import CameraView, camera_link_mm, with_camera
 from .candidates import CAMERA_CANDIDATES, CAMERA_PARAMETERS, READOUT, Candidate, Parameter
 from .evidence import (
     BIC_THRESHOLD,
@@ -52,6 +52,7 @@ from .evidence import (
     NoiseModel,
     delta_bic,
     diagnose,
+    effective_samples,
     independent_frames,
     link_evidence,
     ljung_box_p,
@@ -367,11 +368,7 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
     links = measured["L2_mm"].to_numpy(float)[ok] if "L2_mm" in measured else None
     rigid = link_evidence(measured, tracker_deg)
     noise = _judge_noise(fitter, base, tryable, tracker_deg, links, deg)
-    # A lens or a tilt bends the rigid crank as it crosses the image; where it
-    # does not bend, such an effect would only soak up something else.
-    veto = ({} if rigid.get("camera_effect_suspected", True) else
-            {n: "the rigid crank |AB| does not bend with θ, as a lens or tilt would make it"
-             for n in CAMERA_PARAMETERS})
+    veto = _link_veto(theta, links, view)
     current, steps, scores, groups = _add_effects(fitter, base, tryable, noise, veto)
     before = diagnose(base, deg, t, ctx)
     after = diagnose(current, deg, t, ctx)
@@ -489,6 +486,39 @@ def _judge_noise(fitter: _Fitter, base: ModelFit, tryable: list[Candidate],
                    "that residual and of the |AB| link, each still stretch once")
 
 
+def _link_veto(theta: NDArray, links: NDArray | None, view: CameraView | None
+               ) -> Callable[[str, dict[str, float]], str]:
+    """A check of a lens or tilt at its fitted values against the rigid crank.
+
+    Such an effect bends the measured |AB| as the crank crosses the image, by an
+    amount the camera model predicts (:func:`.camera_view.camera_link_mm`). The
+    measured |AB| is regressed on that predicted bend: a real effect shows with a
+    slope near 1. It is vetoed when the slope is clearly below one half (its upper
+    95 % bound, frames counted by their lag-1 correlation): the bend it implies is
+    not there, so the effect could only be soaking up something else.
+    """
+    ok = None if links is None else np.isfinite(links)
+
+    def check(name: str, values: dict[str, float]) -> str:
+        if name not in CAMERA_PARAMETERS or view is None or ok is None or ok.sum() < 12:
+            return ""
+        predicted = camera_link_mm(theta[ok], values, view)
+        p = predicted - predicted.mean()
+        o = links[ok] - links[ok].mean()
+        pp = float(p @ p)
+        if pp <= 0:
+            return ""
+        slope = float(p @ o) / pp
+        rest = o - slope * p
+        sigma = float(np.std(rest)) / np.sqrt(pp) * np.sqrt(rest.size / effective_samples(rest))
+        if slope + 1.96 * sigma < 0.5:
+            return (f"the rigid crank |AB| does not bend as it would ({np.std(p):.3g} mm σ "
+                    f"predicted, slope {slope:.2f} ± {sigma:.2f} of it measured)")
+        return ""
+
+    return check
+
+
 def _stands_alone(c: Candidate, together: CandidateScore, single: CandidateScore | None
                   ) -> bool:
     """Whether an effect fitted beside others agrees with itself fitted alone."""
@@ -501,12 +531,13 @@ def _stands_alone(c: Candidate, together: CandidateScore, single: CandidateScore
 
 
 def _add_effects(fitter: _Fitter, base: ModelFit, tryable: list[Candidate], noise: NoiseModel,
-                 veto: dict[str, str]) -> tuple[ModelFit, list[ModelFit], list[CandidateScore],
-                                                list[dict]]:
+                 veto: Callable[[str, dict[str, float]], str]
+                 ) -> tuple[ModelFit, list[ModelFit], list[CandidateScore], list[dict]]:
     """Rounds of candidates on top of the current model until none passes or the residual
     is white: (final fit, accepted steps, every score, groups that fit alike).
 
-    ``veto`` names candidates that cannot be, with the reason. From round 2 on, an
+    ``veto(name, values)`` says why a fitted candidate cannot be ("" if it can). From
+    round 2 on, an
     effect must also stand on its own: alone on the base model it must have been
     plausible, with the same sign and within a factor of 3 of the value it takes
     beside the others — an effect that is only there to soak up what another
@@ -528,7 +559,7 @@ def _add_effects(fitter: _Fitter, base: ModelFit, tryable: list[Candidate], nois
                         fitter.nyquist)
             if rnd == 1:
                 alone[c.name] = sc
-            why = veto.get(c.name, "")
+            why = veto(c.name, alt.values)
             if rnd > 1 and not why and not _stands_alone(c, sc, alone.get(c.name)):
                 why = "alone on the base model it has another value or none at all"
             tried.append((replace(sc, veto=why), alt))
