@@ -42,6 +42,8 @@ from .run_folder import (
     RUN_INFO,
     TRACKER_STATE,
     TRACKS,
+    claimed,
+    clear_for,
     run_folder,
 )
 from .tracker.gaps import fill_gaps
@@ -150,6 +152,20 @@ def track_run(
     source = open_frames(video, fps=fps)
     _check_before_tracking(source, specs, known_length, calibration, window_s)
     folder = ensure_dir(out_dir)
+    with claimed(folder):
+        if not resume:
+            clear_for(folder, video)
+        return _track_into(folder, source, video, known_length, specs, window_s,
+                           fill_gaps_frames, calibration, resume, on_start, on_frame)
+
+
+def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
+                known_length: tuple[str, str, float] | None, specs: tuple[MarkerSpec, ...],
+                window_s: float | None, fill_gaps_frames: int,
+                calibration: PlaneCalibration | None, resume: bool,
+                on_start: Callable[[int | None], None] | None,
+                on_frame: Callable[[int], None] | None) -> RunResult:
+    """:func:`track_run`'s work, in a folder it holds."""
     if on_start:
         on_start(source.expected_frames)
     state_path = folder / TRACKER_STATE

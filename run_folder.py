@@ -9,6 +9,9 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -41,6 +44,14 @@ FIT_FIGURE = "residuals.png"
 RECORDING = "run.rrd"
 #: The tracker's state after an interruption, for `track --resume`.
 TRACKER_STATE = ".tracker_state.pkl"
+#: Held while a `track` writes the folder: the writer's process id.
+LOCK = ".cranktrack.lock"
+
+#: What a tracking run writes or derives from its tracks: cleared before a fresh run
+#: of the same video, so a file of the earlier run (kinematics from an earlier
+#: scale, a fit of the earlier tracks) cannot sit beside the new ones.
+RUN_OUTPUTS = (TRACKS, KINEMATICS, RUN_INFO, CALIBRATION, REPORT, KINEMATICS_FIGURE,
+               COMPARE_TABLE, COMPARE_FIT, COMPARE_REPORT, RECORDING)
 
 
 @dataclass(frozen=True)
@@ -82,6 +93,65 @@ class RunFolder:
             raise CranktrackError(f"{path} lacks the column(s) {sorted(missing)}; is it a "
                                   "cranktrack kinematics table?")
         return measured
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's process: alive
+        return True
+    return True
+
+
+@contextmanager
+def claimed(folder: Path) -> Iterator[Path]:
+    """Hold ``folder`` for one writer: a second `track` into it while the first runs is
+    refused with one sentence. A lock left by a process that has died is taken over."""
+    lock = Path(folder) / LOCK
+    for _ in range(2):
+        try:
+            fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        except FileExistsError:
+            try:
+                pid = int(lock.read_text().strip() or 0)
+            except (OSError, ValueError):
+                pid = 0
+            if pid and pid != os.getpid() and _alive(pid):
+                raise CranktrackError(f"another cranktrack (process {pid}) is writing {folder}; "
+                                      "wait for it to finish or give another --out") from None
+            lock.unlink(missing_ok=True)  # stale: its writer is gone
+            continue
+        with os.fdopen(fd, "w") as f:
+            f.write(str(os.getpid()))
+        break
+    try:
+        yield Path(folder)
+    finally:
+        lock.unlink(missing_ok=True)
+
+
+def clear_for(folder: Path, video: str | os.PathLike) -> list[str]:
+    """Make ``folder`` ready for a fresh run of ``video``: refuse a folder that holds
+    another video's run, and remove the earlier run's outputs (:data:`RUN_OUTPUTS`
+    and the fit folder) where it held this one's. Returns the names removed."""
+    info = RunFolder(folder).read_json(RUN_INFO)
+    here = str(Path(video).resolve())
+    before = (info or {}).get("source", {}).get("path")
+    if before and before != here:
+        raise CranktrackError(f"{folder} already holds the run of {before}; give another --out "
+                              "for this video, or delete that folder first")
+    removed = []
+    for name in RUN_OUTPUTS:
+        if (Path(folder) / name).exists():
+            (Path(folder) / name).unlink()
+            removed.append(name)
+    fit = Path(folder) / FIT_DIR
+    if fit.is_dir():
+        shutil.rmtree(fit)
+        removed.append(FIT_DIR)
+    return removed
 
 
 def run_folder(path: str | os.PathLike | RunFolder) -> RunFolder:

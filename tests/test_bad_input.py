@@ -223,3 +223,44 @@ def test_a_metadata_tag_that_is_not_utf8_does_not_stop_the_run(tmp_path, capsys)
     assert main(["track", str(video), "--out", str(tmp_path / "run")]) in (0, 1)
     assert len(pd.read_csv(tmp_path / "run" / "tracks.csv")) == 5
 
+
+
+def test_a_folder_another_run_is_writing_is_refused_and_a_stale_lock_is_taken_over(
+        small_h264, tmp_path, capsys):
+
+    from cranktrack.run_folder import LOCK
+
+    run = tmp_path / "run"
+    run.mkdir()
+    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        (run / LOCK).write_text(str(sleeper.pid))  # a live writer holds it
+        assert main(["track", str(small_h264.video), "--out", str(run)]) == 1
+        assert f"process {sleeper.pid}) is writing" in capsys.readouterr().err
+        assert not (run / "tracks.csv").exists()
+    finally:
+        sleeper.kill()
+        sleeper.wait()
+    # Its writer is gone: the lock is stale, the run goes ahead and leaves no lock.
+    assert main(["track", str(small_h264.video), "--out", str(run)]) == 0
+    assert (run / "tracks.csv").exists() and not (run / LOCK).exists()
+
+
+def test_a_reused_run_folder_does_not_mix_runs(small_h264, tmp_path, capsys):
+    run = tmp_path / "run"
+    assert main(["track", str(small_h264.video), "--out", str(run),
+                 "--known-length", "A-C=160.8"]) == 0
+    (run / "fit").mkdir()
+    (run / "fit" / "report.json").write_text("{}")
+    # The same video again without a scale: the earlier run's kinematics, calibration and
+    # fit would sit beside pixel-only tracks; they are removed.
+    assert main(["track", str(small_h264.video), "--out", str(run)]) == 0
+    assert not (run / "kinematics.csv").exists() and not (run / "calibration.json").exists()
+    assert not (run / "fit").exists() and (run / "tracks.csv").exists()
+    # Another video into the same folder: refused, the first run kept.
+    other = tmp_path / "other.mp4"
+    other.write_bytes(small_h264.video.read_bytes())
+    capsys.readouterr()
+    assert main(["track", str(other), "--out", str(run)]) == 1
+    assert "already holds the run of" in capsys.readouterr().err
+    assert (run / "tracks.csv").exists()
