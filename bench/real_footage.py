@@ -48,11 +48,14 @@ class Clip:
     trz: str
     mass: str
     marker: str
-    physics: str  # "parabola": free flight under gravity
+    physics: str  # "parabola": free flight under gravity; "": no physics test
 
 
 CLIPS = (
     Clip("BallToss.trz", "ball", "ball=white@131,208", "parabola"),
+    # A Jmol rendering of a vibrating molecule (1920×1080): shaded spheres behind
+    # bonds and other atoms of the same colour; the peer followed one cyan atom.
+    Clip("jmoljana.trz", "mass A", "atom=cyan@504,354", ""),
 )
 
 
@@ -87,7 +90,7 @@ def peer_project(trz: Path, mass: str) -> tuple[Path, dict[int, tuple[float, flo
         trk = next(n for n in z.namelist() if n.endswith(".trk"))
     root = ET.parse(folder / trk).getroot()
     video = folder / next(p.text for p in root.iter("property")
-                          if p.get("name") == "path" and p.text.endswith((".mp4", ".mov")))
+                          if p.get("name") == "path" and (p.text or "").endswith((".mp4", ".mov")))
     clicks: dict[int, tuple[float, float]] = {}
     scale = float("nan")
     for obj in root.iter("object"):

@@ -278,11 +278,15 @@ def _full_frame_blob(frame: Frame, state: _MarkerState, t: float, hsv_cache: dic
 def _other_blobs(frame: Frame, state: _MarkerState, hsv_cache: dict,
                  pred: tuple[float, float], tried: Blob, most: int = 3) -> list[Blob]:
     """Blobs of the marker's colour, shape and size in the whole frame, nearest to the
-    prediction first, other than the one ``tried``."""
+    prediction first, other than the one ``tried``, within reach: 20 radii plus three
+    times the last step (a thrown ball moves 15 radii a frame; a blob across the
+    image is another object of the same colour, not the marker)."""
     _full_frame_blob(frame, state, 0.0, hsv_cache, pred)  # fills the frame's HSV
+    reach = 20.0 * (state.radius or tried.radius) + 3.0 * state.speed_px()
     good = [b for b in find_blobs(hsv_cache["full"], state.spec) if b.disc_like()
             and (not state.area or 0.3 * state.area <= b.area <= 3.0 * state.area)
-            and np.hypot(b.x - tried.x, b.y - tried.y) > 1.0]
+            and np.hypot(b.x - tried.x, b.y - tried.y) > 1.0
+            and np.hypot(b.x - pred[0], b.y - pred[1]) <= reach]
     good.sort(key=lambda b: (b.x - pred[0]) ** 2 + (b.y - pred[1]) ** 2)
     return good[:most]
 
