@@ -140,3 +140,16 @@ def test_inspect_lists_each_marker_with_a_marker_option_that_tracks_it(tmp_path,
     out = capsys.readouterr().out
     assert "white@60,91" in out and "cranktrack track" in out
     assert (tmp_path / "s.png").stat().st_size > 1000
+
+
+def test_two_markers_never_share_one_blob():
+    # Two pucks given the same hue by hand, one of them out of the frame: both markers
+    # would lock onto the one puck there is.
+    image = draw([(90.3, 70.6, 7.0, (30.0, 60.0, 200.0))], background=(6.0, 12.0, 0.0))
+    state = TrackerState.start(parse_markers(["p=blue", "q=blue"]))
+    found = locate(image, state=state).set_index("marker")
+    assert (found["status"] == "same_blob").all() and not found["ok"].any()
+    assert any("both found on the blob" in n for st in state.markers for n in st.notes)
+    # With the place of each given, one is found and the other is not there.
+    found = locate(image, parse_markers(["p=blue@90,70", "q=blue@200,150"])).set_index("marker")
+    assert found.at["p", "status"] == "ok" and found.at["q", "status"] == "not_found"

@@ -50,6 +50,7 @@ STATUSES = {
     "refine_failed": "a blob was found but no sub-pixel centre could be fitted",
     "partly_covered": "the marker is there but does not look like a whole disc "
                       "(its fit residual is far above usual), so its centre is not trusted",
+    "same_blob": "two markers were found on one blob; neither is kept there",
 }
 
 #: A fit whose residual exceeds this many times the marker's usual residual is
@@ -365,6 +366,7 @@ def _locate_markers(frame: Frame, state: TrackerState) -> list:
     Updates ``state``: what each marker has learned, and its last two fixes."""
     values: list = []
     hsv_cache: dict = state.balance.copy()
+    found: list[tuple[_MarkerState, Centre]] = []
     for st in state.markers:
         centre, status = _locate(frame, st, frame.t_s, hsv_cache)
         state.balance["gains"] = hsv_cache.get("gains")
@@ -374,7 +376,30 @@ def _locate_markers(frame: Frame, state: TrackerState) -> list:
         else:
             st.history = [*st.history[-1:], (frame.t_s, centre.x, centre.y)]
             values += [centre.x, centre.y, centre.sigma, True, status]
+            found.append((st, centre))
+    _one_blob_each(found, state.markers, values, frame.t_s)
     return values
+
+
+def _one_blob_each(found: list[tuple[_MarkerState, Centre]], markers: list[_MarkerState],
+                   values: list, t: float) -> None:
+    """Two markers on one blob (two of one colour given by hand, a marker lost onto
+    its neighbour): neither is kept there, and the user hears of it once."""
+    clash = set()
+    for i, (a, ca) in enumerate(found):
+        for b, cb in found[i + 1:]:
+            if np.hypot(ca.x - cb.x, ca.y - cb.y) < max(ca.radius, cb.radius):
+                clash |= {id(a), id(b)}
+                if not any("one blob" in n for n in a.notes):
+                    a.notes.append(
+                        f"markers {a.spec.name} and {b.spec.name} were both found on the blob "
+                        f"at ({ca.x:.0f}, {ca.y:.0f}) at t = {t:.3f} s; neither is kept where "
+                        "that happens: give each its own colour or say where each is "
+                        "(--marker NAME=COLOUR@X,Y)")
+    for k, st in enumerate(markers):
+        if id(st) in clash:
+            values[5 * k:5 * k + 5] = [np.nan, np.nan, np.nan, False, "same_blob"]
+            st.history = []
 
 
 def locate(frame: Frame | NDArray[np.uint8], markers: Sequence[MarkerSpec] = DEFAULT_MARKERS,
