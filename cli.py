@@ -284,12 +284,14 @@ def _track(args: argparse.Namespace, video: Path, out: Path):
     specs = DEFAULT_MARKERS
     if getattr(args, "marker", None):
         specs = parse_markers(args.marker)
+    span = _span(getattr(args, "start", None), getattr(args, "end", None))
     with _progress("track") as bar:
         def start(total: int | None) -> None:
             bar.total = total
             bar.refresh()
 
-        return track_run(video, out, known, specs, fps=getattr(args, "fps_images", None),
+        return track_run(video, out, known, specs, span=span,
+                         fps=getattr(args, "fps_images", None),
                          window_s=args.window_s,
                          fill_gaps_frames=getattr(args, "fill_gaps", 0), calibration=plane,
                          resume=getattr(args, "resume", False), on_start=start,
@@ -317,6 +319,38 @@ def _record(run: Path, spawn: bool, path: Path | None = None) -> Path:
             raise CranktrackError(f"could not start the Rerun viewer here ({e}); drop --spawn "
                                   "and open the .rrd file on a machine with a display") from None
         raise
+
+
+def _time_or_frame(text: str) -> tuple[float, str]:
+    """``--start``/``--end``: seconds (``2.5``) or a frame number (``40f``)."""
+    raw = text.strip().lower()
+    unit = "frame" if raw.endswith("f") else "s"
+    try:
+        value = float(raw[:-1] if unit == "frame" else raw)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is neither seconds (2.5) nor a frame "
+                                         "number (40f)") from None
+    if not (np.isfinite(value) and value >= 0) or (unit == "frame" and value != int(value)):
+        raise argparse.ArgumentTypeError(f"{text!r} must be a time ≥ 0 s or a whole frame "
+                                         "number")
+    return value, unit
+
+
+def _span(start: tuple[float, str] | None, end: tuple[float, str] | None):
+    from .tracker.track import Span
+
+    if start is None and end is None:
+        return None
+    units = {x[1] for x in (start, end) if x is not None}
+    if len(units) > 1:
+        raise CranktrackError("give --start and --end in the same unit: both seconds or both "
+                              "frame numbers (40f)")
+    unit = units.pop()
+    lo = start[0] if start else 0.0
+    hi = end[0] if end else float("inf")
+    if hi < lo:
+        raise CranktrackError(f"--end ({hi:g}) comes before --start ({lo:g})")
+    return Span(lo, hi, unit)
 
 
 def cmd_inspect(args: argparse.Namespace) -> int:
@@ -750,6 +784,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("video", help="video file, or a folder of numbered images")
     p.add_argument("--out", required=True, help="run folder to write")
     _add_track_options(p)
+    p.add_argument("--start", type=_time_or_frame, metavar="S|Nf",
+                   help="track from this time (s) or frame number (40f) on")
+    p.add_argument("--end", type=_time_or_frame, metavar="S|Nf",
+                   help="track up to this time (s) or frame number (40f)")
     p.add_argument("--marker", action="append", metavar="NAME=COLOUR[@X,Y]",
                    help="a marker and its colour: red, green, blue, yellow, …, a hue in "
                         "degrees, #RRGGBB, or white/black (found by contrast); @X,Y says "

@@ -48,7 +48,7 @@ from .run_folder import (
 )
 from .tracker.gaps import fill_gaps
 from .tracker.markers import DEFAULT_MARKERS, MarkerSpec
-from .tracker.track import TrackerState, TrackingInterrupted, track, tracks_table
+from .tracker.track import Span, TrackerState, TrackingInterrupted, track, tracks_table
 from .tracker.video import FrameSource, open_frames
 
 if TYPE_CHECKING:
@@ -132,8 +132,9 @@ def track_run(
     resume: bool = False,
     on_start: Callable[[int | None], None] | None = None,
     on_frame: Callable[[int], None] | None = None,
+    span: Span | None = None,
 ) -> RunResult:
-    """Track ``video`` into ``out_dir``.
+    """Track ``video`` into ``out_dir`` (only the frames within ``span``, if given).
 
     Writes ``tracks.csv`` (pixels, plus plane mm when ``known_length`` is
     given), ``calibration.json`` and ``kinematics.csv`` (only with a scale),
@@ -156,7 +157,7 @@ def track_run(
         if not resume:
             clear_for(folder, video)
         return _track_into(folder, source, video, known_length, specs, window_s,
-                           fill_gaps_frames, calibration, resume, on_start, on_frame)
+                           fill_gaps_frames, calibration, resume, on_start, on_frame, span)
 
 
 def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
@@ -164,7 +165,8 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
                 window_s: float | None, fill_gaps_frames: int,
                 calibration: PlaneCalibration | None, resume: bool,
                 on_start: Callable[[int | None], None] | None,
-                on_frame: Callable[[int], None] | None) -> RunResult:
+                on_frame: Callable[[int], None] | None, span: Span | None = None
+                ) -> RunResult:
     """:func:`track_run`'s work, in a folder it holds."""
     if on_start:
         on_start(source.expected_frames)
@@ -177,7 +179,8 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
                                                     "state": state}))
 
     try:
-        result = track(source, specs, on_frame=on_frame, resume=saved, checkpoint=checkpoint)
+        result = track(source, specs, on_frame=on_frame, resume=saved, checkpoint=checkpoint,
+                       span=span)
     except TrackingInterrupted as e:
         if e.state.rows:
             checkpoint(e.state)
@@ -203,7 +206,10 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
                    "codec": source.codec, "width": source.width, "height": source.height},
         "markers": {s.name: {"hue_deg": s.hue_deg, "hue_tol_deg": s.hue_tol_deg}
                     for s in specs},
-        "tracking": {**result.to_dict(), "fill_gaps_frames": fill_gaps_frames},
+        "tracking": {**result.to_dict(), "fill_gaps_frames": fill_gaps_frames,
+                     "span": None if span is None or not span.given else
+                     {"start": span.start, "end": span.end if np.isfinite(span.end) else None,
+                      "unit": span.unit}},
         "warnings": warnings,
     }
     files["run"] = write_json_atomic(folder / RUN_INFO, run_info)

@@ -8,6 +8,7 @@ sharing no code with the tracker.
 """
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from cranktrack.errors import CranktrackError
@@ -153,3 +154,27 @@ def test_two_markers_never_share_one_blob():
     # With the place of each given, one is found and the other is not there.
     found = locate(image, parse_markers(["p=blue@90,70", "q=blue@200,150"])).set_index("marker")
     assert found.at["p", "status"] == "ok" and found.at["q", "status"] == "not_found"
+
+
+def test_start_and_end_limit_the_frames_tracked(tmp_path, capsys):
+    import cv2
+
+    from cranktrack.cli import main
+
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    for i in range(8):
+        image = draw([(40.0 + 10 * i, 60.0, 5.0, WHITE)], seed=i)
+        cv2.imwrite(str(frames / f"f{i:03d}.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+    run = tmp_path / "run"
+    assert main(["track", str(frames), "--fps", "10", "--marker", "ball=white",
+                 "--start", "2f", "--end", "5f", "--out", str(run)]) == 0
+    tracks = pd.read_csv(run / "tracks.csv")
+    assert list(tracks["frame"]) == [2, 3, 4, 5] and tracks["ball_ok"].all()
+    assert main(["track", str(frames), "--fps", "10", "--marker", "ball=white",
+                 "--start", "0.25", "--out", str(tmp_path / "run2")]) == 0
+    assert list(pd.read_csv(tmp_path / "run2" / "tracks.csv")["frame"]) == [3, 4, 5, 6, 7]
+    capsys.readouterr()
+    assert main(["track", str(frames), "--fps", "10", "--start", "9", "--out",
+                 str(tmp_path / "run3")]) == 1
+    assert "lies between 9 s and the end" in capsys.readouterr().err

@@ -313,6 +313,35 @@ def _refine_blob(frame: Frame, state: _MarkerState, blob: Blob, hsv_cache: dict
     return centre, seen, ""
 
 
+@dataclass(frozen=True)
+class Span:
+    """The part of a video to track: from ``start`` to ``end`` inclusive, in seconds
+    of the video's clock, or in frame numbers when ``unit`` is ``"frame"``."""
+
+    start: float = 0.0
+    end: float = float("inf")
+    unit: str = "s"
+
+    @property
+    def given(self) -> bool:
+        return self.start > 0 or np.isfinite(self.end)
+
+    def _at(self, frame: Frame) -> float:
+        return float(frame.index) if self.unit == "frame" else frame.t_s
+
+    def before(self, frame: Frame) -> bool:
+        return self._at(frame) < self.start
+
+    def after(self, frame: Frame) -> bool:
+        return self._at(frame) > self.end
+
+    def describe(self) -> str:
+        unit = " s" if self.unit == "s" else ""
+        what = "frame " if self.unit == "frame" else ""
+        end = f"{what}{self.end:g}{unit}" if np.isfinite(self.end) else "the end"
+        return f"between {what}{self.start:g}{unit} and {end}"
+
+
 @dataclass
 class TrackResult:
     """The tracks table and what the run learned about the footage."""
@@ -472,8 +501,9 @@ def track(
     resume: TrackerState | None = None,
     checkpoint: Callable[[TrackerState], None] | None = None,
     checkpoint_every: int = 250,
+    span: Span | None = None,
 ) -> TrackResult:
-    """Find every marker in every frame of ``source``.
+    """Find every marker in every frame of ``source`` (within ``span``, if given).
 
     Returns one row per decoded frame with ``frame``, ``t_s`` and, per marker,
     ``_x_px``, ``_y_px``, ``_sigma_px`` (per-axis 1-σ, px), ``_ok`` and
@@ -493,9 +523,12 @@ def track(
     """
     state = resume or TrackerState.start(specs)
     done = state.last_frame
+    span = span or Span()
     try:
         for frame in source.frames(prefetch=8):
-            if frame.index <= done:
+            if span.after(frame):
+                break
+            if frame.index <= done or span.before(frame):
                 continue
             state.rows.append([frame.index, frame.t_s, *_locate_markers(frame, state)])
             if on_frame:
@@ -505,6 +538,8 @@ def track(
     except KeyboardInterrupt as e:
         raise TrackingInterrupted(state) from e
     if not state.rows:
+        if span.given:
+            raise CranktrackError(f"no frame of {source.path} lies {span.describe()}")
         raise CranktrackError(f"no frame of {source.path} could be decoded")
     tracks = tracks_table(state.rows, specs)
     found = {s.name: float(tracks[s.name + "_ok"].mean()) for s in specs}
