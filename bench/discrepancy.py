@@ -341,6 +341,14 @@ def open_world(nulls: int) -> None:
     close_loop(table, {**KNOWN, "start_s": 25.0})
     print(f"\nspool loop on a minute of θ (1800 frames): {time.perf_counter() - t0:.1f} s "
           "(fit only; tracking is bench/speed.py's)")
+    # The SMA bed's loop on a minute (current on at 0.5 s, off at 30 s): timing only, so
+    # its θ may come from the models' own full equation of motion.
+    sma = SMAScenario(on_s=0.5, off_s=30.0)
+    table = measured_table(sma.motion(long_t).theta, long_t, sigma, seed=0, correlation=rho,
+                           L1_mm=sma.bed.L1, L2_mm=sma.bed.L2)
+    t0 = time.perf_counter()
+    close_loop(table, {"current_A": 1.3, "current_on_s": 0.5, "current_off_s": 30.0}, "sma")
+    print(f"sma loop on a minute of θ (1800 frames): {time.perf_counter() - t0:.1f} s (fit only)")
 
 
 def main_bench() -> None:

@@ -18,7 +18,13 @@ Three base models (:data:`MODELS`): ``spool`` (the rigid bed of thesis §2.5.2),
    plausible and its imprint on θ rises above the noise; the passing one
    with the largest ΔBIC is accepted (any that fit as well or better but
    fail are named beside it), then the rest are tried again on top of it,
-   until nothing more is accepted or the residual is white.
+   until nothing more is accepted or the residual is white. A later effect
+   must keep its value fitted alone (it is not there only to soak up what the
+   first left); a lens or tilt must show the bend of the rigid crank it
+   predicts (:func:`_link_veto`); a readout must be shorter than a frame.
+5. Open world: when the residual stays structured above 1.5× the tracker's
+   noise, the accepted effects are not named (``tentative``) and the leftover
+   is described instead (:mod:`.leftover`).
 
 The BIC and the parameter intervals count independent evidence, not frames
 (:mod:`.evidence` says why and how).
@@ -251,7 +257,7 @@ class LoopResult:
                 self.leftover["sentence"] or "no simple shape describes it")
             if self.tentative:
                 unexplained += (f"; {', '.join(self.tentative)} improved the fit but did not "
-                                "account for it, so it is not named: it may stand in for "
+                                "account for it, so none is named: each may stand in for "
                                 "something not in the library")
             if self.links.get("camera_effect_suspected"):
                 unexplained += "; " + self.links["reading"]

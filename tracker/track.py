@@ -254,15 +254,20 @@ def _locate(frame: Frame, state: _MarkerState, t: float, hsv_cache: dict
     return centre, "ok"
 
 
-def _full_frame_blob(frame: Frame, state: _MarkerState, t: float, hsv_cache: dict,
-                     pred: tuple[float, float] | None) -> tuple[Blob | None, str]:
-    """The marker's blob in the whole frame, white-balanced (lost, or never seen)."""
+def _full_hsv(frame: Frame, hsv_cache: dict) -> NDArray[np.uint8]:
+    """The whole frame's white-balanced HSV, made once per frame for all markers."""
     if "full" not in hsv_cache:
         if hsv_cache.get("gains") is None:
             hsv_cache["gains"] = white_balance_gains(frame.rgb)
         hsv_cache["full"] = balanced_hsv(frame.rgb, hsv_cache["gains"])
+    return hsv_cache["full"]
+
+
+def _full_frame_blob(frame: Frame, state: _MarkerState, t: float, hsv_cache: dict,
+                     pred: tuple[float, float] | None) -> tuple[Blob | None, str]:
+    """The marker's blob in the whole frame, white-balanced (lost, or never seen)."""
     near = pred if pred is not None else state.spec.near_px
-    blob, status, rivals = acquire(hsv_cache["full"], state.spec, state.area, near)
+    blob, status, rivals = acquire(_full_hsv(frame, hsv_cache), state.spec, state.area, near)
     if blob is not None and pred is None and near is not None and np.hypot(
             blob.x - near[0], blob.y - near[1]) > 4 * blob.radius + 20:
         return None, "not_found"  # not yet where the user said it is
@@ -282,9 +287,8 @@ def _other_blobs(frame: Frame, state: _MarkerState, hsv_cache: dict,
     prediction first, other than the one ``tried``, within reach: 20 radii plus three
     times the last step (a thrown ball moves 15 radii a frame; a blob across the
     image is another object of the same colour, not the marker)."""
-    _full_frame_blob(frame, state, 0.0, hsv_cache, pred)  # fills the frame's HSV
     reach = 20.0 * (state.radius or tried.radius) + 3.0 * state.speed_px()
-    good = [b for b in find_blobs(hsv_cache["full"], state.spec) if b.disc_like()
+    good = [b for b in find_blobs(_full_hsv(frame, hsv_cache), state.spec) if b.disc_like()
             and (not state.area or 0.3 * state.area <= b.area <= 3.0 * state.area)
             and np.hypot(b.x - tried.x, b.y - tried.y) > 1.0
             and np.hypot(b.x - pred[0], b.y - pred[1]) <= reach]
@@ -298,9 +302,8 @@ def _refine_blob(frame: Frame, state: _MarkerState, blob: Blob, hsv_cache: dict
     radius = state.radius or blob.radius
     if not state.learned:
         # Learning follows a full-frame search, whose white-balanced HSV is at hand.
-        if "full" not in hsv_cache:
-            hsv_cache["full"] = balanced_hsv(frame.rgb, hsv_cache.get("gains"))
-        hsv_patch, x0, y0 = patch_around(hsv_cache["full"], blob.x, blob.y, radius + 3)
+        hsv_patch, x0, y0 = patch_around(_full_hsv(frame, hsv_cache), blob.x, blob.y,
+                                         radius + 3)
         state.spec = learn_spec(state.spec, hsv_patch, (blob.x, blob.y), radius, x0, y0)
         state.learned = True
     centre, seen = refine(frame, (blob.x, blob.y), radius, state.marker,
