@@ -533,7 +533,8 @@ def _print_fit(report: dict) -> None:
     if fm.get("accepted"):
         print(f"effect accepted (A and C tracks): pivot_amp_mm: the frame shakes "
               f"{fm['amp_mm']:.4g} ± {fm['amp_sigma_mm']:.2g} mm at {fm['hz']:.4g} ± "
-              f"{fm['hz_sigma']:.2g} Hz (ΔBIC {fm['delta_bic']:.0f}); θ does not see it, v_B does")
+              f"{fm['hz_sigma']:.2g} Hz across A–C, {fm['amp_vector_mm']:.4g} mm as a whole "
+              f"(ΔBIC {fm['delta_bic']:.0f}); θ does not see it, v_B does")
     final = report["parameters"]
     for c in accepted:
         values = ", ".join(f"{k} = {final[k]['value']:.4g} ± {final[k]['sigma']:.2g}"

@@ -53,6 +53,11 @@ class FrameShake:
     frames: int
     accepted: bool
     reason: str
+    #: The same shake's component along the A–C line at the fitted frequency, mm,
+    #: and the largest displacement of the whole frame over a cycle (the vector),
+    #: mm: a shake at an angle shows across the line only in part.
+    amp_along_mm: float = float("nan")
+    amp_vector_mm: float = float("nan")
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -120,6 +125,7 @@ def frame_shake(tracks: pd.DataFrame) -> FrameShake | None:
     except np.linalg.LinAlgError:
         amp_sigma = hz_sigma = float("inf")
     imprint = float(p[0] / sigma) if sigma > 0 else float("inf")
+    along, vector = _along_and_vector(tracks, ok, t, p)
     reasons = []
     if delta_bic <= BIC_THRESHOLD:
         reasons.append(f"ΔBIC {delta_bic:.1f} ≤ {BIC_THRESHOLD:g}")
@@ -133,4 +139,24 @@ def frame_shake(tracks: pd.DataFrame) -> FrameShake | None:
     return FrameShake(float(p[0]), amp_sigma, float(p[1]), hz_sigma,
                       float(np.mod(p[2], 2 * np.pi)), delta_bic, imprint,
                       float(np.sqrt(rss0 / n)), float(np.sqrt(rss1 / n)), sigma, n,
-                      not reasons, "; ".join(reasons))
+                      not reasons, "; ".join(reasons), along, vector)
+
+
+def _along_and_vector(tracks: pd.DataFrame, ok: NDArray, t: NDArray, p: NDArray
+                      ) -> tuple[float, float]:
+    """The shake's along-line amplitude at the fitted frequency (linear least squares
+    on the mean of A's and C's x, mm) and the peak of the whole displacement vector."""
+    if "A_x_mm" not in tracks or "C_x_mm" not in tracks:
+        return float("nan"), float("nan")
+    ax, cx = tracks["A_x_mm"].to_numpy(float)[ok], tracks["C_x_mm"].to_numpy(float)[ok]
+    x = 0.5 * ((ax - np.nanmedian(ax)) + (cx - np.nanmedian(cx)))
+    good = np.isfinite(x)
+    if good.sum() < 12:
+        return float("nan"), float("nan")
+    w = 2.0 * np.pi * p[1]
+    X = np.column_stack([np.sin(w * t), np.cos(w * t), np.ones_like(t)])
+    sx, cxo, _ = np.linalg.lstsq(X[good], x[good], rcond=None)[0]
+    phase = np.linspace(0.0, 2.0 * np.pi, 721)
+    dx = sx * np.sin(phase) + cxo * np.cos(phase)
+    dy = p[0] * np.sin(phase + p[2])
+    return float(np.hypot(sx, cxo)), float(np.max(np.hypot(dx, dy)))

@@ -197,6 +197,8 @@ def report_markdown(report: dict) -> str:
                   ""]
         if fm["accepted"]:
             lines.append(f"The frame shakes: {fm['amp_mm']:.4g} ± {fm['amp_sigma_mm']:.2g} mm "
+                         f"across the A–C line ({fm['amp_along_mm']:.4g} mm along it, "
+                         f"{fm['amp_vector_mm']:.4g} mm as a whole) "
                          f"at {fm['hz']:.4g} ± {fm['hz_sigma']:.2g} Hz (ΔBIC "
                          f"{fm['delta_bic']:.1f}); A and C move {fm['rmse_before_mm']:.4g} mm "
                          f"RMS across the line, {fm['rmse_after_mm']:.4g} mm once the shake is "

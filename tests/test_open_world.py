@@ -9,6 +9,7 @@ never under another effect's name.
 """
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from cranktrack.loop.camera_view import CameraView, camera_link_mm
@@ -139,3 +140,24 @@ def test_a_readout_longer_than_a_frame_is_not_plausible():
     assert abs(readout["parameters"]["readout_s"]["value"]) > 1 / 30
     assert not readout["plausible"] and not readout["accepted"]
     assert report["effects"] == ["time_offset_s"]
+
+
+def test_a_shake_at_an_angle_is_reported_as_the_whole_vector():
+    from cranktrack.loop.frame_motion import frame_shake
+
+    # The frame shakes 0.4 mm along a line 30° off A–C, at 5 Hz: across the line
+    # that is 0.2 mm, along it 0.35 mm.
+    rng = np.random.default_rng(3)
+    t = np.arange(150) / 30.0
+    move = 0.4 * np.sin(2 * np.pi * 5.0 * t)
+    dx, dy = move * np.cos(np.radians(30)), move * np.sin(np.radians(30))
+    tracks = pd.DataFrame({"t_s": t, "A_x_mm": dx + rng.normal(0, 0.01, t.size),
+                           "A_y_mm": dy + rng.normal(0, 0.01, t.size),
+                           "C_x_mm": 160.8 + dx + rng.normal(0, 0.01, t.size),
+                           "C_y_mm": dy + rng.normal(0, 0.01, t.size),
+                           "A_sigma_mm": 0.01, "C_sigma_mm": 0.01})
+    shake = frame_shake(tracks)
+    assert shake.accepted
+    assert shake.amp_mm == pytest.approx(0.2, rel=0.05)
+    assert shake.amp_along_mm == pytest.approx(0.4 * np.cos(np.radians(30)), rel=0.05)
+    assert shake.amp_vector_mm == pytest.approx(0.4, rel=0.05)
