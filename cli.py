@@ -462,7 +462,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     _print_fit(fit_run(run.folder, "spool", known)[0].to_dict())
     ring = args.demo_ring_hz
     print()
-    print(f"The same bed whose return spring rings at {ring:g} Hz when the spool stops "
+    print(f"The same bed whose crank rings at {ring:g} Hz when the spool starts and stops "
           "(an effect the model lacks, not declared to the fit):")
     args.effect = [f"return_spring_hz={ring}"]
     files2 = _render(args, out / "scene-ring")

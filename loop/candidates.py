@@ -86,7 +86,8 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
                Parameter("return_spring_zeta", "1", 0.001, 0.99)),
               ((0.5, 0.1), (1.0, 0.1), (2.0, 0.1), (4.0, 0.1), (8.0, 0.1)), np.inf,
               (0.05, np.inf),
-              "after the drive stops the crank overshoots and rings about its final angle"),
+              "the crank has inertia: it rings when the drive starts and when it stops, and "
+              "lags a little while it runs"),
     Candidate("wire_stretch_mm", "physical",
               (Parameter("wire_stretch_mm", "mm", 0.0, 10.0),), ((0.1,), (0.5,)), 0.0,
               (0.0, 10.0),

@@ -44,8 +44,9 @@ EFFECTS: dict[str, EffectInfo] = {
         "rises faster than the constant-speed model and the stroke ends sooner"),
     "return_spring_hz": EffectInfo(
         "physical", "Hz",
-        "when the spool stops the crank does not stop dead: it overshoots and rings about its "
-        "final angle at this frequency (inertia against the torsion spring, thesis Fig. 2.36)"),
+        "the crank has inertia against the wire and the torsion spring: it rings at this "
+        "frequency when the spool starts and when it stops (thesis Fig. 2.36 shows the "
+        "stop) and lags a little while the spool runs"),
     "wire_stretch_mm": EffectInfo(
         "physical", "mm",
         "the wire stretches under the return spring's pull (this much at the start): the "
