@@ -35,7 +35,7 @@ def survey(rgb: NDArray[np.uint8], min_area_px: int = 12, most: int = 12) -> pd.
     rounded), ``name`` (the nearest colour name, for people) and ``marker``: the
     ``--marker`` value that follows it, e.g. ``m1=120@312,99``. Blobs found in
     two overlapping hue windows are listed once; strips and streaks are kept
-    (the tracker follows them too) but a disc-like blob ranks higher.
+    (the tracker follows them too) but a round blob of a marker's size ranks higher.
     """
     gains = white_balance_gains(rgb)
     hsv = balanced_hsv(rgb, gains)
@@ -57,14 +57,21 @@ def survey(rgb: NDArray[np.uint8], min_area_px: int = 12, most: int = 12) -> pd.
                                         "aspect", "colour", "name", "disc_like"])
     if table.empty:
         return table.assign(marker=pd.Series(dtype=str))
-    # One row per place: the same blob seen through two neighbouring hue windows.
-    table = table.sort_values(["disc_like", "area_px"], ascending=False)
+    # Most marker-like first: disc-like, of a marker's size (a hand or a sign is larger
+    # than 25 px in radius), then the roundest. One row per place: the same blob seen
+    # through two neighbouring hue windows is listed once.
+    table["roundness"] = (np.abs(table["fill"] - np.pi / 4)
+                          + np.abs(np.log(table["aspect"].clip(lower=1e-3))))
+    table["too_big"] = table["radius_px"] > 25.0
+    table = table.sort_values(["disc_like", "too_big", "roundness"],
+                              ascending=[False, True, True])
     kept: list[int] = []
     for i, r in table.iterrows():
         if all(np.hypot(r.x_px - table.at[j, "x_px"], r.y_px - table.at[j, "y_px"])
                > max(r.radius_px, 2.0) for j in kept):
             kept.append(i)
-    table = table.loc[kept].head(most).reset_index(drop=True)
+    table = table.loc[kept].head(most).drop(columns=["roundness", "too_big"])
+    table = table.reset_index(drop=True)
     table["marker"] = [f"m{k + 1}={r.colour}@{r.x_px:.0f},{r.y_px:.0f}"
                        for k, r in table.iterrows()]
     return table
