@@ -126,6 +126,9 @@ def claimed(folder: Path) -> Iterator[Path]:
         with os.fdopen(fd, "w") as f:
             f.write(str(os.getpid()))
         break
+    else:  # another writer took the stale lock between our two tries
+        raise CranktrackError(f"another cranktrack is starting to write {folder}; wait for it "
+                              "to finish or give another --out")
     try:
         yield Path(folder)
     finally:

@@ -73,8 +73,7 @@ def signature(t_s: NDArray, residual_deg: NDArray, model_deg: NDArray,
     # A ripple lives while the drive moves and often rides on a lag (the base fit
     # shifts to meet it halfway): it is sought and fitted beside the −τ·ω term, and
     # its share is what it adds to that term's.
-    lag_share, _ = _share(r, [omega]) if moving.any() else (0.0, None)
-    _, lag_coef = _share(r, [omega]) if moving.any() else (0.0, np.zeros(2))
+    lag_share, lag_coef = _share(r, [omega]) if moving.any() else (0.0, np.zeros(2))
     periodic = []
     for frames in (moving, np.ones_like(moving)):  # locked to the drive, or always there
         f = _strongest_frequency(t, r - lag_coef[0] * omega, frames)

@@ -161,9 +161,8 @@ def quasi_static_theta(bed: SMABed, xi: NDArray[np.float64],
     # The balance depends on ξ alone, so it is solved on a grid of ξ and read off
     # by interpolation: a fit asks for thousands of frames, all on one smooth curve
     # (257 nodes put the linear interpolation within 1e-4° of the solve).
-    lo_xi, hi_xi = float(np.min(xi)), float(np.max(xi))
-    nodes = (np.linspace(lo_xi, hi_xi, 257) if hi_xi - lo_xi > 1e-12
-             else np.array([lo_xi]))
+    # Where ξ is constant the nodes coincide, and the interpolation gives their one balance.
+    nodes = np.linspace(float(np.min(xi)), float(np.max(xi)), 257)
 
     def torque(th: NDArray, x: NDArray) -> NDArray:
         return k_b * (theta_b - th) - bed.wire_force_N(th, x) * bed.moment_arm_m(th)
@@ -176,13 +175,12 @@ def quasi_static_theta(bed: SMABed, xi: NDArray[np.float64],
         lo = np.where(up, mid, lo)
         hi = np.where(up, hi, mid)
     on_nodes = 0.5 * (lo + hi)
-    theta = np.interp(xi, nodes, on_nodes) if nodes.size > 1 else np.full(xi.shape, on_nodes[0])
+    theta = np.interp(xi, nodes, on_nodes)
     if t_s is None or bed.damping_Nms_rad == 0:
         return theta
     h = 1e-6
     stiff_nodes = -(torque(on_nodes + h, nodes) - torque(on_nodes - h, nodes)) / (2 * h)
-    stiffness = (np.interp(xi, nodes, stiff_nodes) if nodes.size > 1
-                 else np.full(xi.shape, stiff_nodes[0]))
+    stiffness = np.interp(xi, nodes, stiff_nodes)
     rate = np.gradient(theta, np.asarray(t_s, float))
     return theta - bed.damping_Nms_rad * rate / np.maximum(stiffness, 1e-12)
 

@@ -21,7 +21,7 @@ Lengths in mm, angles in rad, times in s (the video's clock, unless said).
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 import pandas as pd
@@ -124,10 +124,13 @@ class SpoolBed:
         """Wire wound onto the spool (mm) at drive time ``t_s`` (s)."""
         t = np.asarray(t_s, float)
         phi = np.maximum(t - self.start_s, 0.0) * self.servo_rad_s
-        # The servo stops once the stroke is wound: find that angle once.
-        phi_stop = brentq(lambda p: float(self._wound_at_angle(np.array(p))) - self.stroke_mm,
-                          0.0, 10.0 * self.stroke_mm / self.spool_radius_mm + 10.0)
-        return self._wound_at_angle(np.minimum(phi, phi_stop))
+        return self._wound_at_angle(np.minimum(phi, self._stop_angle))
+
+    @cached_property
+    def _stop_angle(self) -> float:
+        """The spool's turn (rad) at which the stroke is wound and the servo stops."""
+        return brentq(lambda p: float(self._wound_at_angle(np.array(p))) - self.stroke_mm,
+                      0.0, 10.0 * self.stroke_mm / self.spool_radius_mm + 10.0)
 
     def _stiff_wire_theta(self, t: NDArray) -> NDArray:
         """θ (rad) for an inextensible wire without play or inertia."""

@@ -10,6 +10,7 @@ Newton's law for the ringing crank), so a wrong formula in the fitter would fail
 """
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
@@ -36,8 +37,7 @@ def true_theta(effect: dict) -> np.ndarray:
                    ring_zeta=e.pop("return_spring_zeta", 0.1))
     # Speed growth is the wire layering on the spool: one diameter of radius per turn.
     growth = e.pop("spool_growth_per_s", 0.0)
-    bed = SpoolBed(**{**bed.__dict__, "wire_diameter_mm":
-                      growth * bed.spool_radius_mm / bed.turn_hz})
+    bed = replace(bed, wire_diameter_mm=growth * bed.spool_radius_mm / bed.turn_hz)
     assert not e, f"no mechanism for {e}"
     return bed.theta(np.maximum(clock, 0.0))
 
