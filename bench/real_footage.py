@@ -166,6 +166,11 @@ def run_clip(repo: Path, clip: Clip) -> None:
               f"px the peer's (scale {scale:.1f} px/m from the peer's metre stick)")
         print(f"  ±1σ coverage of our σ (median {np.median(sigma):.3f} px) against the "
               f"parabola: {100 * inside.mean():.0f} % of coordinates (aim 50–90 %)")
+        # A residual that is smooth from frame to frame is the parabola's own error
+        # (perspective, drag), not tracking noise; the lag-1 correlation says which.
+        r1 = [float(np.corrcoef(resid[:-1, i], resid[1:, i])[0, 1]) for i in range(2)]
+        print(f"  parabola residual lag-1 correlation x {r1[0]:+.2f}, y {r1[1]:+.2f} "
+              "(near 0 for noise; near +1 when the residual is the model's, not the track's)")
     print(f"  time: tracking {track_s:.2f} s, decoding alone {decode_s:.2f} s "
           f"(ratio decode/track {decode_s / track_s:.2f}; aim ≥ 0.9 on clips over 10 s)")
 

@@ -39,6 +39,7 @@ from .refine import (
     local_coverage,
     weighted_centroid,
 )
+from .scatter import with_scatter_floor
 from .video import Frame, FrameSource, timing_report
 
 #: Why a marker has no position in a frame (the ``_status`` column).
@@ -489,11 +490,21 @@ def locate(frame: Frame | NDArray[np.uint8], markers: Sequence[MarkerSpec] = DEF
 
 
 def tracks_table(rows: list[list], specs: tuple[MarkerSpec, ...]) -> pd.DataFrame:
-    """The tracks table from finished rows."""
+    """The tracks table from finished rows.
+
+    Each found centre's σ is raised to the track's local frame-to-frame scatter
+    where its own fit claims less (:mod:`.scatter`). The rows keep the fit's σ,
+    so a resumed run raises them over the same frames as an uninterrupted one.
+    """
     tracks = pd.DataFrame(rows, columns=tracker_columns(tuple(s.name for s in specs)))
     tracks["frame"] = tracks["frame"].astype(int)
     for s in specs:
-        tracks[s.name + "_ok"] = tracks[s.name + "_ok"].astype(bool)
+        ok = tracks[s.name + "_ok"].astype(bool)
+        tracks[s.name + "_ok"] = ok
+        xy = tracks[[s.name + "_x_px", s.name + "_y_px"]].to_numpy(float, copy=True)
+        xy[~ok.to_numpy()] = np.nan
+        tracks[s.name + "_sigma_px"] = with_scatter_floor(
+            tracks[s.name + "_sigma_px"].to_numpy(float), xy)
     return tracks
 
 
