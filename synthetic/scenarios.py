@@ -8,6 +8,7 @@ chapter 5.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
 from functools import lru_cache
 from typing import Protocol
@@ -22,6 +23,7 @@ from ..models.dynamics import CrankDynamics
 from ..models.heat import CurrentSteps
 from ..models.sma_bed import SMABed, simulate_bed
 from ..models.spool import SpoolDrive
+from .free_swing import SwingingCrank
 
 
 @dataclass(frozen=True)
@@ -129,15 +131,19 @@ class FreeScenario:
     omega_init_rad_s: float = 0.0
     name: str = "free"
 
-    def motion(self, t_s: ArrayLike) -> Motion:
-        """Exact (to the integrator's 1e-10) motion at times ``t_s`` (s, from 0)."""
-        t = np.asarray(t_s, dtype=float)
+    @property
+    def crank(self) -> SwingingCrank:
+        """The same bed built from its parts (:mod:`.free_swing`): the render's physics,
+        written apart from the fitter's eq. 3.28, with a true stick–slip for dry friction."""
         d = self.dynamics
-        # One dense integration to the next whole 10 s covers every frame asked for.
-        t_end = 10.0 * np.ceil(max(float(t.max()), 1e-9) / 10.0)
-        theta, omega = d.solution(t_end, np.radians(self.theta_init_deg),
-                                  self.omega_init_rad_s)(t)
-        return motion_from_angle(t, theta, omega, d.accel(theta, omega), d.L1, d.L2)
+        return SwingingCrank(d.L1, d.L2, d.I, d.k_l, d.k_s, d.theta0, d.eps, d.k_d, d.coulomb)
+
+    def motion(self, t_s: ArrayLike) -> Motion:
+        """Motion at times ``t_s`` (s, from 0), to the integrator's 1e-11."""
+        t = np.asarray(t_s, dtype=float)
+        theta, omega, alpha = _free_swing(self.crank, np.radians(self.theta_init_deg),
+                                          self.omega_init_rad_s, _horizon(t))(t)
+        return motion_from_angle(t, theta, omega, alpha, self.dynamics.L1, self.dynamics.L2)
 
     def extent_mm(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The crank's whole circle and the frame: wherever the motion goes."""
@@ -241,6 +247,23 @@ def _antagonistic_solution(bed: AntagonisticBed, t_end: float
     omega = np.gradient(theta, grid)
     alpha = np.gradient(omega, grid)
     return CubicHermiteSpline(grid, theta, omega), CubicHermiteSpline(grid, omega, alpha)
+
+
+def _horizon(t: NDArray) -> float:
+    """The next whole 10 s after the last time: one solution covers every frame asked for."""
+    return 10.0 * np.ceil(max(float(t.max()), 1e-9) / 10.0)
+
+
+@lru_cache(maxsize=8)
+def _free_swing(crank: SwingingCrank, theta_init: float, omega_init: float, t_end: float
+                ) -> Callable[[NDArray], tuple[NDArray, NDArray, NDArray]]:
+    """θ, θ', θ'' at any times up to ``t_end``, from one solution on a 1 ms grid
+    (the renderer asks frame by frame): cubic Hermite in θ and θ' with their rates
+    as slopes, so a stick is kept exactly where it happens to within a millisecond."""
+    grid = np.arange(0.0, t_end + 1e-3, 1e-3)
+    theta, omega, alpha = crank.swing(grid, theta_init, omega_init)
+    th_of, om_of = CubicHermiteSpline(grid, theta, omega), CubicHermiteSpline(grid, omega, alpha)
+    return lambda t: (th_of(t), om_of(t), om_of(t, 1))
 
 
 @lru_cache(maxsize=8)

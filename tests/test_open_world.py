@@ -161,3 +161,48 @@ def test_a_shake_at_an_angle_is_reported_as_the_whole_vector():
     assert shake.amp_mm == pytest.approx(0.2, rel=0.05)
     assert shake.amp_along_mm == pytest.approx(0.4 * np.cos(np.radians(30)), rel=0.05)
     assert shake.amp_vector_mm == pytest.approx(0.4, rel=0.05)
+
+
+# The free response (the dynamic model) against the crank built from its parts in
+# synthetic/free_swing.py: vector torques and a true stick–slip, not eq. 3.28's
+# closed form with a tanh.
+
+def _free_table(friction: float, seed: int) -> pd.DataFrame:
+    from cranktrack.synthetic.scenarios import FreeScenario
+
+    d = FreeScenario().dynamics
+    crank = FreeScenario().crank.__class__(d.L1, d.L2, d.I, d.k_l, d.k_s, d.theta0, d.eps,
+                                           d.k_d, friction)
+    t = np.arange(180) / 30.0
+    theta = crank.swing(t, np.radians(70.0))[0]
+    return measured_table(theta, t, SIGMA, seed=seed, L1_mm=d.L1, L2_mm=d.L2)
+
+
+def test_the_free_swing_and_the_fitters_equation_agree_without_dry_friction():
+    from cranktrack.models.dynamics import CrankDynamics
+    from cranktrack.synthetic.free_swing import SwingingCrank
+
+    d = CrankDynamics(I=0.05, k_l=1.0, k_s=1e-3, k_d=0.5, L1=160.8, L2=72.4,
+                      theta0=np.radians(90.0))
+    crank = SwingingCrank(d.L1, d.L2, d.I, d.k_l, d.k_s, d.theta0, d.eps, d.k_d)
+    t = np.arange(300) / 30.0
+    theirs = d.simulate(t, np.radians(70.0))[0]
+    assert np.degrees(np.max(np.abs(crank.swing(t, np.radians(70.0))[0] - theirs))) < 1e-6
+
+
+@pytest.mark.parametrize("friction", [
+    0.0, 0.3,
+    # Against a true stick the fitter's tanh stand-in lets the stopped crank creep on:
+    # μ is fitted at 0.600 but 0.078° (4× the noise) stays structured, so it is only
+    # tentative. A Karnopp stick in the fitter made LSODA give up (left for later).
+    pytest.param(0.6, marks=pytest.mark.xfail(strict=True, reason="tanh friction creeps")),
+])
+def test_the_dynamic_model_finds_stick_slip_friction_it_did_not_render(friction):
+    result = close_loop(_free_table(friction, seed=2), {}, model="dynamic").to_dict()
+    if friction:
+        assert result["effects"] == ["coulomb_rad_s2"]
+        fitted = result["parameters"]["coulomb_rad_s2"]["value"]
+        # The fitter's tanh lets the crank creep where the true stick holds it.
+        assert abs(fitted - friction) < 0.15 * friction
+    else:
+        assert result["effects"] == []
