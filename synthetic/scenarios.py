@@ -21,9 +21,10 @@ from ..models.antagonistic import AntagonisticBed, simulate_antagonistic
 from ..models.crank_slider import crank_state, l3_from_theta
 from ..models.dynamics import CrankDynamics
 from ..models.heat import CurrentSteps
-from ..models.sma_bed import SMABed, simulate_bed
+from ..models.sma_bed import SMABed
 from ..models.spool import SpoolDrive
 from .free_swing import SwingingCrank
+from .sma_rig import SMARig, SMAWireParts
 
 
 @dataclass(frozen=True)
@@ -160,8 +161,9 @@ class FreeScenario:
 class SMAScenario:
     """The SMA-actuated bed of thesis §2.5.3 (Table 2.3): a current step heats the
     wire, it contracts and pulls the crank from θ0 = 125° to about 98°, then the
-    current stops, the wire cools and the bias spring brings the crank back
-    (:mod:`cranktrack.models.sma_bed`)."""
+    current stops, the wire cools and the bias spring brings the crank back. The
+    parameters are :class:`cranktrack.models.sma_bed.SMABed`'s; the motion is
+    rendered from :mod:`.sma_rig`, written apart from that model."""
 
     bed: SMABed = field(default_factory=SMABed)
     current_A: float = 1.3
@@ -178,11 +180,18 @@ class SMAScenario:
         renderer asks frame by frame): cubic Hermite in θ with ω as its slope, and in ω
         with α as its slope, on a 1 ms grid."""
         t = np.asarray(t_s, dtype=float)
-        # One dense integration to the next whole 10 s covers every frame asked for.
-        t_end = 10.0 * np.ceil(max(float(t.max()), 1e-9) / 10.0)
-        theta_of, omega_of = _sma_solution(self.bed, self.current, t_end)
-        theta, omega = theta_of(t), omega_of(t)
-        return motion_from_angle(t, theta, omega, omega_of(t, 1), self.bed.L1, self.bed.L2)
+        theta, omega, alpha = _sma_response(self.rig, self.current, _horizon(t))(t)
+        return motion_from_angle(t, theta, omega, alpha, self.bed.L1, self.bed.L2)
+
+    @property
+    def rig(self) -> SMARig:
+        """The same bed built from its parts (:mod:`.sma_rig`): the render's physics,
+        written apart from the fitter's heat and balance models."""
+        b = self.bed
+        return SMARig(b.L1, b.L2, np.radians(b.theta0_deg), b.recovery_strain,
+                      b.E_austenite_Pa, b.E_martensite_Pa, b.bias_k_Nm_rad, b.preload_N,
+                      b.inertia_kg_m2, b.damping_Nms_rad, SMAWireParts(**asdict(b.thermal)),
+                      b.thermal_lag_s)
 
     def extent_mm(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The crank's whole circle and the frame."""
@@ -267,8 +276,10 @@ def _free_swing(crank: SwingingCrank, theta_init: float, omega_init: float, t_en
 
 
 @lru_cache(maxsize=8)
-def _sma_solution(bed: SMABed, current: CurrentSteps, t_end: float
-                  ) -> tuple[CubicHermiteSpline, CubicHermiteSpline]:
+def _sma_response(rig: SMARig, current: CurrentSteps, t_end: float
+                  ) -> Callable[[NDArray], tuple[NDArray, NDArray, NDArray]]:
+    """θ, θ', θ'' at any times up to ``t_end``, from one integration on a 1 ms grid."""
     grid = np.arange(0.0, t_end + 1e-3, 1e-3)
-    m = simulate_bed(bed, current, grid)
-    return CubicHermiteSpline(grid, m.theta, m.omega), CubicHermiteSpline(grid, m.omega, m.alpha)
+    theta, omega, alpha = rig.response(grid, lambda s: float(current(s)))
+    th_of, om_of = CubicHermiteSpline(grid, theta, omega), CubicHermiteSpline(grid, omega, alpha)
+    return lambda t: (th_of(t), om_of(t), om_of(t, 1))
