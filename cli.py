@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import CranktrackError
+from .errors import CranktrackError, RunInterrupted
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -914,9 +914,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         _print_warnings(e.warnings)
         print(f"cranktrack: error: {e}", file=sys.stderr)
         return 1
+    except RunInterrupted as e:
+        hint = ("continue it with the same command and --resume" if e.resumable
+                else "no frame was finished, so run it again from the start")
+        print(f"cranktrack: interrupted; files already written in {e.folder} are kept; "
+              f"{hint}", file=sys.stderr)
+        return 130
     except KeyboardInterrupt:
-        print("cranktrack: interrupted; files already written are kept (an interrupted "
-              "`track` continues with --resume)", file=sys.stderr)
+        print("cranktrack: interrupted; files already written are kept", file=sys.stderr)
         return 130
     except BrokenPipeError:  # output piped into e.g. `head`, which stopped reading
         sys.stderr.close()

@@ -18,3 +18,13 @@ class CranktrackError(Exception):
     def __init__(self, message: str, warnings: tuple[str, ...] | list[str] = ()) -> None:
         super().__init__(message)
         self.warnings = tuple(warnings)
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a run. ``resumable`` says whether ``--resume`` can continue it
+    (the tracker's state was saved), so the CLI only advertises what works."""
+
+    def __init__(self, folder: str, resumable: bool) -> None:
+        super().__init__(f"interrupted in {folder}")
+        self.folder = folder
+        self.resumable = resumable

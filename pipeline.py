@@ -26,7 +26,7 @@ from .calibration.plane import (
     add_plane_coordinates,
     align_to_markers,
 )
-from .errors import CranktrackError
+from .errors import CranktrackError, RunInterrupted
 from .files import ensure_dir, write_csv_atomic, write_json_atomic, write_text_atomic
 from .kinematics.measured import LINK_JUMP_SIGMA, LINK_WANDER, measure_kinematics
 from .run_folder import (
@@ -156,8 +156,19 @@ def track_run(
     with claimed(folder):
         if not resume:
             clear_for(folder, video)
-        return _track_into(folder, source, video, known_length, specs, window_s,
-                           fill_gaps_frames, calibration, resume, on_start, on_frame, span)
+        try:
+            result = _track_into(folder, source, video, known_length, specs, window_s,
+                                 fill_gaps_frames, calibration, resume, on_start, on_frame,
+                                 span)
+        except KeyboardInterrupt as e:
+            # The tracker's state stays until the whole run is written, so a run stopped
+            # in any step after its first frame resumes; before it, there is nothing to.
+            raise RunInterrupted(str(folder), (folder / TRACKER_STATE).exists()) from e
+        except CranktrackError:
+            (folder / TRACKER_STATE).unlink(missing_ok=True)  # it ended: nothing to resume
+            raise
+        (folder / TRACKER_STATE).unlink(missing_ok=True)
+        return result
 
 
 def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
@@ -185,7 +196,7 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
         if e.state.rows:
             checkpoint(e.state)
         raise
-    state_path.unlink(missing_ok=True)
+    checkpoint(result.state)  # the finished state: a Ctrl-C in a later step resumes
     tracks = result.tracks
     names = tuple(s.name for s in specs)
     if fill_gaps_frames > 0:

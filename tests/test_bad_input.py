@@ -163,6 +163,78 @@ def test_ctrl_c_keeps_valid_tracks_and_resume_equals_an_uninterrupted_run(small_
     assert not (tmp_path / "cut" / ".tracker_state.pkl").exists()
 
 
+RESUMED_FILES = ("tracks.csv", "kinematics.csv", "calibration.json")
+
+
+def _same_bytes(a, b) -> None:
+    for name in RESUMED_FILES:
+        assert (a / name).read_bytes() == (b / name).read_bytes(), name
+
+
+@pytest.mark.parametrize("at_frame", [7, 33])
+def test_a_real_sigint_mid_frame_resumes_byte_for_byte(small_h264, tmp_path, at_frame,
+                                                       monkeypatch):
+    # SIGINT as Ctrl-C sends it, raised while a frame is half tracked (marker B found,
+    # C not yet): the tracker finishes that frame first, so the saved state and the
+    # rows agree.
+    import os
+    import signal
+
+    import cranktrack.tracker.track as tracker
+    from cranktrack.errors import RunInterrupted
+    from cranktrack.pipeline import track_run
+
+    track_run(small_h264.video, tmp_path / "full", ("A", "C", 160.8))
+    real = tracker._locate
+
+    def locate_then_sigint(frame, marker, *args, **kwargs):
+        found = real(frame, marker, *args, **kwargs)
+        if frame.index == at_frame and marker.spec.name == "B":
+            os.kill(os.getpid(), signal.SIGINT)
+        return found
+
+    monkeypatch.setattr(tracker, "_locate", locate_then_sigint)
+    with pytest.raises(RunInterrupted) as stop:
+        track_run(small_h264.video, tmp_path / "cut", ("A", "C", 160.8))
+    monkeypatch.setattr(tracker, "_locate", real)
+    assert stop.value.resumable
+    assert len(pd.read_csv(tmp_path / "cut" / "tracks.csv")) == at_frame + 1
+    track_run(small_h264.video, tmp_path / "cut", ("A", "C", 160.8), resume=True)
+    _same_bytes(tmp_path / "full", tmp_path / "cut")
+
+
+def test_ctrl_c_in_the_kinematics_step_resumes(small_h264, tmp_path, monkeypatch):
+    import cranktrack.pipeline as pipeline
+    from cranktrack.errors import RunInterrupted
+
+    pipeline.track_run(small_h264.video, tmp_path / "full", ("A", "C", 160.8))
+    real = pipeline.measure_kinematics
+
+    def stopped(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(pipeline, "measure_kinematics", stopped)
+    with pytest.raises(RunInterrupted) as stop:
+        pipeline.track_run(small_h264.video, tmp_path / "cut", ("A", "C", 160.8))
+    assert stop.value.resumable and not (tmp_path / "cut" / "kinematics.csv").exists()
+    monkeypatch.setattr(pipeline, "measure_kinematics", real)
+    pipeline.track_run(small_h264.video, tmp_path / "cut", ("A", "C", 160.8), resume=True)
+    _same_bytes(tmp_path / "full", tmp_path / "cut")
+    assert not (tmp_path / "cut" / ".tracker_state.pkl").exists()
+
+
+def test_ctrl_c_before_the_first_frame_is_not_called_resumable(small_h264, tmp_path):
+    from cranktrack.errors import RunInterrupted
+    from cranktrack.pipeline import track_run
+
+    def stopped(total):
+        raise KeyboardInterrupt
+
+    with pytest.raises(RunInterrupted) as stop:
+        track_run(small_h264.video, tmp_path / "cut", ("A", "C", 160.8), on_start=stopped)
+    assert not stop.value.resumable
+
+
 def test_resume_without_an_interrupted_run(small_h264, tmp_path):
     p = _run("track", str(small_h264.video), "--out", str(tmp_path), "--resume")
     assert p.returncode == 1 and "no interrupted run to resume" in p.stderr

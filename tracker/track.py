@@ -11,7 +11,10 @@ Every found blob is refined to a sub-pixel centre with a 1-σ
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import signal
+import threading
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -355,6 +358,8 @@ class TrackResult:
     found_fraction: dict[str, float]
     problems: list[str] = field(default_factory=list)
     learned: dict[str, dict] = field(default_factory=dict)
+    #: The tracker's state after the last frame (what a checkpoint saves).
+    state: TrackerState | None = None
 
     def to_dict(self) -> dict:
         """JSON-ready summary for ``run.json``."""
@@ -391,6 +396,30 @@ class TrackingInterrupted(KeyboardInterrupt):
     def __init__(self, state: TrackerState) -> None:
         super().__init__("tracking interrupted")
         self.state = state
+
+
+@contextmanager
+def _between_frames() -> Iterator[list[bool]]:
+    """Ctrl-C (SIGINT) is held until the frame in hand is finished: a frame half
+    tracked would leave some markers' memory a frame ahead of the rows, and a
+    resumed run would then differ from an uninterrupted one. Yields a list that
+    is non-empty once Ctrl-C was pressed. A second Ctrl-C interrupts at once.
+    Only the main thread can take signals; elsewhere nothing is held."""
+    asked: list[bool] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield asked
+        return
+
+    def hold(signum: int, frame_: object) -> None:
+        if asked:
+            raise KeyboardInterrupt
+        asked.append(True)
+
+    previous = signal.signal(signal.SIGINT, hold)
+    try:
+        yield asked
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _locate_markers(frame: Frame, state: TrackerState) -> list:
@@ -539,16 +568,21 @@ def track(
     done = state.last_frame
     span = span or Span()
     try:
-        for frame in source.frames(prefetch=8):
-            if span.after(frame):
-                break
-            if frame.index <= done or span.before(frame):
-                continue
-            state.rows.append([frame.index, frame.t_s, *_locate_markers(frame, state)])
-            if on_frame:
-                on_frame(frame.index)
-            if checkpoint and len(state.rows) % checkpoint_every == 0:
-                checkpoint(state)
+        with _between_frames() as asked:
+            for frame in source.frames(prefetch=8):
+                if asked:
+                    raise KeyboardInterrupt
+                if span.after(frame):
+                    break
+                if frame.index <= done or span.before(frame):
+                    continue
+                state.rows.append([frame.index, frame.t_s, *_locate_markers(frame, state)])
+                if on_frame:
+                    on_frame(frame.index)
+                if checkpoint and len(state.rows) % checkpoint_every == 0:
+                    checkpoint(state)
+            if asked:
+                raise KeyboardInterrupt
     except KeyboardInterrupt as e:
         raise TrackingInterrupted(state) from e
     if not state.rows:
@@ -563,4 +597,4 @@ def track(
                for st in state.markers}
     notes = [n for st in state.markers for n in st.notes]
     return TrackResult(tracks, timing_report(tracks["t_s"].to_numpy(), source.nominal_fps),
-                       found, list(source.problems) + notes, learned)
+                       found, list(source.problems) + notes, learned, state)
