@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from .errors import CranktrackError
+from .errors import CranktrackError, RunInterrupted
 from .files import ensure_dir, write_csv_atomic
 
 
@@ -40,16 +40,19 @@ def _folder_for(video: Path, out: Path, taken: set[str]) -> Path:
 
 
 def process_one(video: str, folder: str, known_length: tuple[str, str, float] | None,
-                compare: bool) -> dict:
+                compare: bool, resume: bool = False) -> dict:
     """Track (and optionally compare) one video; never raises for bad input.
 
     Runs in a worker process or on a Dask worker, so it imports what it needs.
+    With ``resume``, a run interrupted in ``folder`` continues where it stopped.
     """
     from .pipeline import compare_run, track_run
+    from .run_folder import TRACKER_STATE
 
     row: dict = {"video": video, "run": folder, "status": "ok", "message": ""}
     try:
-        run = track_run(video, folder, known_length)
+        resume = resume and (Path(folder) / TRACKER_STATE).exists()
+        run = track_run(video, folder, known_length, resume=resume)
         t = run.tracks
         row["frames"] = len(t)
         for m in [c[:-3] for c in t.columns if c.endswith("_ok")]:
@@ -80,18 +83,70 @@ def run_batch(
     jobs: int | None = None,
     scheduler: str | object | None = None,
     on_done: Callable[[dict], None] | None = None,
+    resume: bool = False,
 ) -> pd.DataFrame:
     """Process every video matching ``pattern``; write and return ``summary.csv``.
 
     ``scheduler`` is a Dask scheduler address (``tcp://host:8786``) or a
     ``distributed.Client``; without it, ``jobs`` local processes (default:
     all cores). ``on_done(row)`` is called as each video finishes.
+
+    Ctrl-C writes the summary of the videos that finished (the others are rows
+    with status ``interrupted``) and raises :class:`RunInterrupted`. ``resume``
+    keeps the rows of videos an earlier ``summary.csv`` has as ``ok`` and runs
+    only the rest, each continuing from where it was interrupted.
     """
     videos = find_videos(pattern)
     out = ensure_dir(out_dir)
     taken: set[str] = set()
-    tasks = [(str(v), str(_folder_for(v, out, taken)), known_length, compare) for v in videos]
-    rows: list[dict] = []
+    tasks = [(str(v), str(_folder_for(v, out, taken)), known_length, compare, resume)
+             for v in videos]
+    rows = _finished(out / SUMMARY, {t[0] for t in tasks}) if resume else []
+    done = {r["video"] for r in rows}
+    tasks = [t for t in tasks if t[0] not in done]
+    try:
+        _run_tasks(tasks, rows, jobs, scheduler, on_done)
+    except KeyboardInterrupt as e:
+        finished = {r["video"] for r in rows}
+        rows += [{"video": t[0], "run": t[1], "status": "interrupted",
+                  "message": "stopped by Ctrl-C"} for t in tasks if t[0] not in finished]
+        _write_summary(out, rows)
+        raise RunInterrupted(str(out), True) from e
+    return _write_summary(out, rows)
+
+
+#: The batch's table, one row per video.
+SUMMARY = "summary.csv"
+
+
+def _finished(path: Path, videos: set[str]) -> list[dict]:
+    """The rows of an earlier summary whose video finished ``ok`` and is still asked for."""
+    if not path.exists():
+        return []
+    try:
+        old = pd.read_csv(path)
+    except (OSError, ValueError, pd.errors.ParserError) as e:
+        raise CranktrackError(f"{path} cannot be read ({e}); run without --resume") from None
+    if not {"video", "status"} <= set(old.columns):
+        raise CranktrackError(f"{path} is not a cranktrack batch summary; run without --resume")
+    keep = old[(old["status"] == "ok") & old["video"].isin(videos)]
+    return [{k: v for k, v in row.items() if pd.notna(v)} for row in keep.to_dict("records")]
+
+
+def _write_summary(out: Path, rows: list[dict]) -> pd.DataFrame:
+    summary = pd.DataFrame(rows)
+    if len(summary):
+        summary = summary.sort_values("video").reset_index(drop=True)
+    write_csv_atomic(out / SUMMARY, summary)
+    return summary
+
+
+def _run_tasks(tasks: list[tuple], rows: list[dict], jobs: int | None,
+               scheduler: str | object | None, on_done: Callable[[dict], None] | None
+               ) -> None:
+    """Run ``process_one`` on each task, appending each finished row to ``rows``."""
+    if not tasks:
+        return
     if scheduler is not None:
         try:
             from distributed import Client
@@ -116,13 +171,14 @@ def run_batch(
         workers = jobs or os.cpu_count() or 1
         with ProcessPoolExecutor(max_workers=min(workers, len(tasks))) as pool:
             futures = [pool.submit(process_one, *a) for a in tasks]
-            for fut in as_completed(futures):
-                rows.append(fut.result())
-                if on_done:
-                    on_done(rows[-1])
-    summary = pd.DataFrame(rows).sort_values("video").reset_index(drop=True)
-    write_csv_atomic(out / "summary.csv", summary)
-    return summary
+            try:
+                for fut in as_completed(futures):
+                    rows.append(fut.result())
+                    if on_done:
+                        on_done(rows[-1])
+            except KeyboardInterrupt:
+                pool.shutdown(wait=True, cancel_futures=True)
+                raise
 
 
 def _as_completed_dask(futures):

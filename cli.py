@@ -671,7 +671,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
         print(f"{Path(row['video']).name}: {state}", flush=True)
 
     summary = run_batch(args.pattern, args.out, known, args.compare, args.jobs, args.scheduler,
-                        on_done=done)
+                        on_done=done, resume=args.resume)
     failed = int((summary["status"] != "ok").sum())
     print(f"{len(summary) - failed} of {len(summary)} videos done; summary in "
           f"{Path(args.out) / 'summary.csv'}")
@@ -884,6 +884,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--compare", action="store_true", help="also fit the spool model")
     p.add_argument("--jobs", type=int, help="local worker processes (default: all cores)")
     p.add_argument("--scheduler", help="Dask scheduler address to run on, e.g. tcp://host:8786")
+    p.add_argument("--resume", action="store_true",
+                   help="keep the videos an earlier summary.csv in --out has as ok; run the "
+                   "rest, each from where it was interrupted")
     p.set_defaults(func=cmd_batch)
 
     p = sub.add_parser("view", help="write a run's Rerun recording (RUN/run.rrd)")

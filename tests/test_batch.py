@@ -56,3 +56,23 @@ def test_no_match_is_one_clear_error(tmp_path):
 
     with pytest.raises(CranktrackError, match="no files match"):
         run_batch(str(tmp_path / "*.mp4"), tmp_path / "out")
+
+
+def test_an_interrupted_batch_keeps_a_summary_and_resumes(recordings, tmp_path):
+    from cranktrack.errors import RunInterrupted
+
+    def stop_after_first(row):
+        raise KeyboardInterrupt
+
+    with pytest.raises(RunInterrupted):
+        run_batch(str(recordings / "*.mp4"), tmp_path, ("A", "C", 160.8), jobs=1,
+                  on_done=stop_after_first)
+    first = pd.read_csv(tmp_path / "summary.csv")
+    assert len(first) == 4 and (first["status"] != "interrupted").sum() == 1
+    again: list[str] = []
+    summary = run_batch(str(recordings / "*.mp4"), tmp_path, ("A", "C", 160.8), jobs=1,
+                        on_done=lambda row: again.append(row["video"]), resume=True)
+    _check(summary, tmp_path)
+    finished_first = first.loc[first["status"] == "ok", "video"].tolist()
+    assert not set(finished_first) & set(again)  # a finished video is not run twice
+    assert len(again) == 4 - len(finished_first)
