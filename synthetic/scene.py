@@ -8,6 +8,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..errors import CranktrackError
 from ..files import ensure_dir, write_csv_atomic, write_json_atomic
@@ -211,6 +212,7 @@ def render_scene(
     if effects.get("pivot_amp_mm", 0) > 0:
         scenario = ShakenFrame(scenario, effects["pivot_amp_mm"], effects.get("pivot_hz", 5.0))
     camera = camera or scenario_camera(scenario, settings.size)
+    created = not Path(out_dir).exists()
     folder = ensure_dir(out_dir)  # only once the request is known to be good
     keep, stamps = recording_times(settings.n_frames, settings.fps, effects, settings.seed)
     n = len(keep)
@@ -221,20 +223,15 @@ def render_scene(
     cover = {k: set(v) for k, v in (covered or {}).items()}
     for name, frames in hide.items():
         truth.loc[truth["frame"].isin(frames), f"{name}_ok"] = False
-    rng = np.random.default_rng(settings.seed)
     video = folder / "video.mp4"
-    with VideoWriter(video, *settings.size, settings.fps, settings.lossless,
-                     settings.crf) as writer:
-        for i in range(n):
-            shown = Style(**{**style.__dict__, "markers": {
-                k: c for k, c in style.markers.items() if i not in hide.get(k, ())}})
-            covering = tuple(k for k, frames in cover.items() if i in frames)
-            img = _expose(scenario, camera, settings, shown, float(t[i]), covering)
-            if settings.light_gradient:
-                img *= _light(settings, float(t[i]))
-            writer.write(to_uint8(img, settings.noise_dn, rng), float(stamps[i]))
-            if on_frame:
-                on_frame(i + 1, n)
+    try:
+        _write_frames(video, scenario, camera, settings, style, (t, stamps), hide, cover,
+                      on_frame)
+    except KeyboardInterrupt:
+        video.unlink(missing_ok=True)  # half a video is not a render
+        if created and not any(folder.iterdir()):
+            folder.rmdir()  # Ctrl-C leaves no empty folder behind
+        raise
     truth_path = write_csv_atomic(folder / "truth.csv", truth)
     scene = {
         "schema": SCENE_SCHEMA,
@@ -264,6 +261,29 @@ def render_scene(
     }
     scene_path = write_json_atomic(folder / "scene.json", scene)
     return SceneFiles(folder, video, truth_path, scene_path)
+
+
+def _write_frames(video: Path, scenario: Scenario, camera: Camera | PinholeCamera,
+                  settings: RenderSettings, style: Style,
+                  times: tuple[NDArray[np.float64], NDArray[np.float64]],
+                  hide: dict[str, set[int]], cover: dict[str, set[int]],
+                  on_frame: Callable[[int, int], None] | None) -> None:
+    """Draw and encode every frame: taken at ``times[0]`` (s), stamped ``times[1]``."""
+    t, stamps = times
+    n = len(t)
+    rng = np.random.default_rng(settings.seed)
+    with VideoWriter(video, *settings.size, settings.fps, settings.lossless,
+                     settings.crf) as writer:
+        for i in range(n):
+            shown = Style(**{**style.__dict__, "markers": {
+                k: c for k, c in style.markers.items() if i not in hide.get(k, ())}})
+            covering = tuple(k for k, frames in cover.items() if i in frames)
+            img = _expose(scenario, camera, settings, shown, float(t[i]), covering)
+            if settings.light_gradient:
+                img *= _light(settings, float(t[i]))
+            writer.write(to_uint8(img, settings.noise_dn, rng), float(stamps[i]))
+            if on_frame:
+                on_frame(i + 1, n)
 
 
 #: Effects that are the camera itself (its tilt, deg, and lens k1, k2) or the render's

@@ -336,3 +336,22 @@ def test_a_reused_run_folder_does_not_mix_runs(small_h264, tmp_path, capsys):
     assert main(["track", str(other), "--out", str(run)]) == 1
     assert "already holds the run of" in capsys.readouterr().err
     assert (run / "tracks.csv").exists()
+
+
+def test_ctrl_c_during_a_render_leaves_no_half_video_and_no_empty_folder(tmp_path):
+    from cranktrack.synthetic.scenarios import SpoolScenario
+    from cranktrack.synthetic.scene import RenderSettings, render_scene
+
+    def stopped(i, n):
+        if i == 3:
+            raise KeyboardInterrupt
+
+    settings = RenderSettings(size=(160, 120), fps=30.0, seconds=1.0)
+    with pytest.raises(KeyboardInterrupt):
+        render_scene(SpoolScenario(), tmp_path / "new", settings, on_frame=stopped)
+    assert not (tmp_path / "new").exists()
+    (tmp_path / "kept").mkdir()
+    (tmp_path / "kept" / "notes.txt").write_text("mine")
+    with pytest.raises(KeyboardInterrupt):
+        render_scene(SpoolScenario(), tmp_path / "kept", settings, on_frame=stopped)
+    assert [p.name for p in (tmp_path / "kept").iterdir()] == ["notes.txt"]
