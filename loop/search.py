@@ -441,7 +441,8 @@ class _Fitter:
         # mimic an effect can sit in a valley the effect cannot leave).
         guess = self.guess
         origins = (self.guesses if start_from is guess and not effects
-                   else [start_from] if start_from is guess else [start_from, guess])
+                   else [start_from] if start_from is guess
+                   else [start_from, *self.guesses[:self.spec.effect_guesses]])
         starts = [[o[p.name] for p in self.base_free] + list(es)
                   for es in effect_starts for o in origins]
         return _fit(self.t, self.theta, self.simulate, self.held, free, starts, effects,

@@ -9,17 +9,15 @@ for the rest to be identifiable (``hold``).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
-from scipy.integrate import odeint
 
 from ..errors import CranktrackError
-from ..models.dynamics import COULOMB_SMOOTHING, CrankDynamics
+from ..models.dynamics import CrankDynamics, free_response
 from ..models.heat import CurrentSteps, SMAWire, simulate_wire
 from ..models.sma_bed import SMABed, lagged, quasi_static_theta
 from ..models.spool import TABLE_2_2, SpoolDrive, spool_motion
@@ -86,32 +84,13 @@ def _spool_guess(t: NDArray, theta: NDArray, measured: pd.DataFrame,
 
 def dynamic_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[np.float64]:
     """θ (rad) of the free response (eq. 3.28, unit inertia, ε = 0.05) from t_s[0], with
-    Coulomb friction when ``values`` sets it (LSODA, rtol 1e-9)."""
+    stick–slip dry friction when ``values`` sets it (compiled RK4, 1 ms steps:
+    :func:`cranktrack.models.dynamics.free_response`, ~1 ms a simulation)."""
     v = values
-    L1, L2 = v["L1_mm"], v["L2_mm"]
-    dyn = CrankDynamics(I=1.0, k_l=v["k_l"], k_s=v["k_s"], k_d=v["k_d"], L1=L1, L2=L2,
-                        theta0=np.radians(v["theta_rest_deg"]),
+    dyn = CrankDynamics(I=1.0, k_l=v["k_l"], k_s=v["k_s"], k_d=v["k_d"], L1=v["L1_mm"],
+                        L2=v["L2_mm"], theta0=np.radians(v["theta_rest_deg"]),
                         coulomb=v.get("coulomb_rad_s2", 0.0))
-    k_l, k_s, k_d, th0, L3_0, fc = (dyn.k_l, dyn.k_s, dyn.k_d, dyn.theta0, dyn.L3_0,
-                                    dyn.coulomb)
-    a, b = L1 * L1 + L2 * L2, 2.0 * L1 * L2
-
-    # Plain floats: the integrator calls this thousands of times per fit.
-    def rhs(y: NDArray, _t: float) -> list[float]:
-        th, om = float(y[0]), float(y[1])
-        L3 = math.sqrt(a - b * math.cos(th))
-        wire = k_s * L1 * L2 * math.sin(th) * (1.0 - L3_0 / L3)
-        friction = fc * math.tanh(om / COULOMB_SMOOTHING) if fc else 0.0
-        return [om, k_l * (th0 - th) - k_d * om - wire - friction]
-
-    t = np.asarray(t_s, float)
-    # LSODA (odeint) rather than RK45 here: the same answer, several times faster with a
-    # Python right-hand side, and a fit simulates a thousand times.
-    y, info = odeint(rhs, [np.radians(v["theta_init_deg"]), v["omega_init_rad_s"]], t,
-                     rtol=1e-9, atol=1e-11, full_output=True)
-    if info["message"] != "Integration successful.":
-        raise CranktrackError("the free response could not be integrated for these values")
-    return y[:, 0]
+    return free_response(dyn, t_s, np.radians(v["theta_init_deg"]), v["omega_init_rad_s"])[0]
 
 
 @dataclass(frozen=True)
@@ -129,6 +108,10 @@ class ModelSpec:
     #: Relative step of the fit's finite-difference Jacobian: well above the
     #: simulation's own error, or the Jacobian is noise.
     diff_step: float = 1e-7
+    #: How many of the data's guesses an effect's fit also starts from, besides where
+    #: the base fit ended. One, unless the model is cheap and its guesses differ in
+    #: ways an effect needs (the free response's damping: dry friction looks like more).
+    effect_guesses: int = 1
 
 
 def _measured_median(measured: pd.DataFrame, col: str) -> float | None:
@@ -184,18 +167,36 @@ def _dynamic_hold(measured: pd.DataFrame, known: dict[str, float]
 def _dynamic_guesses(t: NDArray, theta: NDArray, measured: pd.DataFrame,
                      held: dict[str, float]) -> list[dict]:
     """From the swing itself: its first angle and rate, where it settles, its frequency
-    (zero crossings about the settling angle) and its decay."""
+    (crossings of the settling angle) and its decay.
+
+    A crossing counts only between excursions beyond 5σ of the tracker's noise on
+    each side: a crank that has stopped (dry friction) sits on its settling angle
+    and the noise alone would cross it every other frame, making the swing look
+    fifty times faster than it is."""
     deg = np.degrees(theta)
     rest = float(np.median(deg[-max(3, deg.size // 4):]))
     x = deg - rest
-    crossings = np.flatnonzero(np.sign(x[1:]) != np.sign(x[:-1]))
-    period = 2.0 * float(np.median(np.diff(t[crossings]))) if crossings.size > 2 \
+    col = next((c for c in ("theta_deg_sigma_tracker", "theta_deg_sigma") if c in measured),
+               None)
+    sigma = float(np.nanmedian(measured[col])) if col is not None else 0.0
+    big = np.flatnonzero(np.abs(x) > 5.0 * (sigma if np.isfinite(sigma) else 0.0))
+    turns = np.flatnonzero(np.sign(x[big][1:]) != np.sign(x[big][:-1]))
+    crossings = 0.5 * (t[big][turns] + t[big][turns + 1])
+    period = 2.0 * float(np.median(np.diff(crossings))) if crossings.size > 2 \
         else float(t[-1] - t[0])
     wn = 2.0 * np.pi / max(period, 1e-6)
     base = {"theta_init_deg": float(deg[0]),
             "omega_init_rad_s": float((theta[1] - theta[0]) / (t[1] - t[0])),
             "k_l": wn**2, "k_s": 0.0, "theta_rest_deg": rest, **held}
-    return [{**base, "k_d": 2.0 * zeta * wn} for zeta in (0.05, 0.2)]
+    # The decay seen, as a damping ratio from the mean log decrement per half swing
+    # (dry friction shows here too, so it comes first: the effect's fit starts there).
+    halves = np.split(np.abs(x), np.searchsorted(t, crossings))
+    peaks = np.array([h.max() for h in halves if h.size])
+    zetas = [0.05, 0.2]
+    if peaks.size >= 3 and peaks[-1] > 0:
+        delta = float(np.log(peaks[0] / peaks[-1])) / (peaks.size - 1)
+        zetas.insert(0, float(np.clip(delta / np.hypot(np.pi, delta), 0.01, 0.7)))
+    return [{**base, "k_d": 2.0 * zeta * wn} for zeta in zetas]
 
 
 def sma_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -250,7 +251,7 @@ MODELS: dict[str, ModelSpec] = {
     "spool": ModelSpec("spool", SPOOL_BASE, spool_theta, CANDIDATES, _spool_guesses,
                        _spool_hold),
     "dynamic": ModelSpec("dynamic", DYNAMIC_BASE, dynamic_theta, DYNAMIC_CANDIDATES,
-                         _dynamic_guesses, _dynamic_hold, diff_step=1e-4),
+                         _dynamic_guesses, _dynamic_hold, diff_step=1e-4, effect_guesses=3),
     "sma": ModelSpec("sma", SMA_BASE, sma_theta, SMA_CANDIDATES, _sma_guesses, _sma_hold,
                      diff_step=1e-3),
 }

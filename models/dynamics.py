@@ -20,18 +20,99 @@ chapter 3 uses normalised values: ``L2 = 1`` and the others 1 unless varied).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 from .crank_slider import l3_from_theta
 
-#: Angular speed (rad/s) over which the Coulomb friction term changes sign.
-COULOMB_SMOOTHING = 0.01
+#: Largest integration step of :func:`free_response`, s: RK4 at 1 ms is within 1e-9
+#: rad of Dormand–Prince at rtol 1e-10 on the thesis's swings (a few rad/s).
+FREE_STEP_S = 1e-3
+
+
+@njit(cache=True)
+def _accel(th: float, om: float, sense: float, k_l: float, k_s: float, k_d: float,
+           L1: float, L2: float, th0: float, L3_0: float, mu: float) -> float:
+    L3 = math.sqrt(L1 * L1 + L2 * L2 - 2.0 * L1 * L2 * math.cos(th))
+    wire = k_s * L1 * L2 * math.sin(th) * (1.0 - L3_0 / L3)
+    return k_l * (th0 - th) - k_d * om - wire - mu * sense
+
+
+@njit(cache=True)
+def _rk4(th: float, om: float, h: float, sense: float, p: tuple) -> tuple[float, float]:
+    a1 = _accel(th, om, sense, *p)
+    a2 = _accel(th + 0.5 * h * om, om + 0.5 * h * a1, sense, *p)
+    a3 = _accel(th + 0.5 * h * (om + 0.5 * h * a1), om + 0.5 * h * a2, sense, *p)
+    a4 = _accel(th + h * (om + 0.5 * h * a2), om + h * a3, sense, *p)
+    th1 = th + h * om + h * h / 6.0 * (a1 + a2 + a3)
+    om1 = om + h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+    return th1, om1
+
+
+@njit(cache=True)
+def _free_response(t: np.ndarray, th: float, om: float, p: tuple,
+                   max_step: float) -> tuple[np.ndarray, np.ndarray]:
+    """θ and θ' at times ``t`` under eq. 3.28 per unit inertia, with stick–slip dry friction
+    ``mu = p[-1]``: moving, it decelerates by mu against the motion; where the
+    crank stops (found by bisection within the step) it stays, for good, unless
+    the springs pull harder than mu (the system is autonomous, so a stuck crank
+    never breaks loose again)."""
+    mu = p[-1]
+    out, rate = np.empty(t.size), np.empty(t.size)
+    out[0], rate[0] = th, om
+    stuck = False
+    for i in range(1, t.size):
+        steps = max(1, math.ceil((t[i] - t[i - 1]) / max_step))
+        h = (t[i] - t[i - 1]) / steps
+        for _ in range(steps):
+            if stuck:
+                break
+            rest = _accel(th, 0.0, 0.0, *p)  # the springs alone
+            if om == 0.0 and abs(rest) <= mu:
+                stuck = True
+                break
+            sense = math.copysign(1.0, om if om != 0.0 else rest)
+            th1, om1 = _rk4(th, om, h, sense, p)
+            if mu > 0.0 and om1 * sense < 0.0:
+                lo, hi = 0.0, h  # it stopped within this step: find where
+                for _ in range(40):
+                    mid = 0.5 * (lo + hi)
+                    if _rk4(th, om, mid, sense, p)[1] * sense > 0.0:
+                        lo = mid
+                    else:
+                        hi = mid
+                th, om = _rk4(th, om, hi, sense, p)[0], 0.0
+                rest = _accel(th, 0.0, 0.0, *p)
+                if abs(rest) <= mu:
+                    stuck = True
+                    break
+                th, om = _rk4(th, 0.0, h - hi, math.copysign(1.0, rest), p)
+            else:
+                th, om = th1, om1
+        out[i], rate[i] = th, om
+    return out, rate
+
+
+def free_response(dyn: CrankDynamics, t_s: ArrayLike, theta_init: float,
+                  omega_init: float = 0.0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """θ (rad) and θ' (rad/s) at times ``t_s`` (s, increasing; the initial state is at
+    ``t_s[0]``), with the dry friction ``dyn.coulomb`` as a true stick–slip (compiled
+    RK4, steps of at most :data:`FREE_STEP_S`). Raises ``FloatingPointError`` if the swing runs off
+    to infinity (parameters a fit should not choose)."""
+    t = np.ascontiguousarray(t_s, dtype=float)
+    p = (dyn.k_l / dyn.I, dyn.k_s / dyn.I, dyn.k_d, dyn.L1, dyn.L2, dyn.theta0, dyn.L3_0,
+         dyn.coulomb)
+    theta, omega = _free_response(t, float(theta_init), float(omega_init), p, FREE_STEP_S)
+    if not np.all(np.isfinite(theta)):
+        raise FloatingPointError("the free response diverged")
+    return theta, omega
 
 
 @dataclass(frozen=True)
@@ -47,9 +128,11 @@ class CrankDynamics:
     theta0: float = np.pi
     eps: float = 0.05
     #: Dry (Coulomb) friction at the pivot, as an angular deceleration (rad/s²):
-    #: ``− coulomb·tanh(θ'/ω_c)`` with ω_c = 0.01 rad/s, a smooth stand-in for
-    #: sign(θ') so the integrator need not chase the switch. Not in the thesis;
-    #: an effect real pivots have (0: none).
+    #: ``− coulomb·sign(θ')`` while the crank turns, and a stick where it stops unless
+    #: the springs overcome it (:func:`free_response`). Not in the thesis; an effect
+    #: real pivots have (0: none). A tanh(θ'/0.01) stand-in used before let a
+    #: stopped crank creep on: against a true stick-slip render
+    #: (``synthetic/free_swing.py``) it left 4× the noise unexplained.
     coulomb: float = 0.0
 
     @property
@@ -69,7 +152,7 @@ class CrankDynamics:
         with np.errstate(divide="ignore", invalid="ignore"):
             wire = self.k_s / self.I * self.L1 * self.L2 * np.sin(th) * (1.0 - self.L3_0 / L3)
         om = np.asarray(omega, float)
-        friction = self.coulomb * np.tanh(om / COULOMB_SMOOTHING) if self.coulomb else 0.0
+        friction = self.coulomb * np.sign(om) if self.coulomb else 0.0  # while sliding
         return self.k_l / self.I * (self.theta0 - th) - self.k_d * om - wire - friction
 
     def daccel_dtheta(self, theta: ArrayLike) -> NDArray[np.float64]:
@@ -116,8 +199,11 @@ class CrankDynamics:
 
     def simulate(self, t_s: ArrayLike, theta_init: float, omega_init: float = 0.0,
                  rtol: float = 1e-10, atol: float = 1e-12) -> tuple[NDArray, NDArray]:
-        """θ(t), θ'(t) from Dormand–Prince (RK45) at tight tolerances."""
+        """θ(t), θ'(t) from Dormand–Prince (RK45) at tight tolerances; with dry
+        friction, from :func:`free_response` (its stick is an event RK45 cannot see)."""
         t = np.asarray(t_s, float)
+        if self.coulomb:
+            return free_response(self, t, theta_init, omega_init)
         sol = solve_ivp(lambda _, y: [y[1], float(self.accel(y[0], y[1]))], (t[0], t[-1]),
                         [theta_init, omega_init], method="RK45", t_eval=t, rtol=rtol, atol=atol)
         if not sol.success:
