@@ -341,14 +341,69 @@ def open_world(nulls: int) -> None:
     close_loop(table, {**KNOWN, "start_s": 25.0})
     print(f"\nspool loop on a minute of θ (1800 frames): {time.perf_counter() - t0:.1f} s "
           "(fit only; tracking is bench/speed.py's)")
-    # The SMA bed's loop on a minute (current on at 0.5 s, off at 30 s): timing only, so
-    # its θ may come from the models' own full equation of motion.
+    # The SMA bed's loop on a minute (current on at 0.5 s, off at 30 s).
     sma = SMAScenario(on_s=0.5, off_s=30.0)
     table = measured_table(sma.motion(long_t).theta, long_t, sigma, seed=0, correlation=rho,
                            L1_mm=sma.bed.L1, L2_mm=sma.bed.L2)
     t0 = time.perf_counter()
     close_loop(table, {"current_A": 1.3, "current_on_s": 0.5, "current_off_s": 30.0}, "sma")
     print(f"sma loop on a minute of θ (1800 frames): {time.perf_counter() - t0:.1f} s (fit only)")
+
+
+def open_world_models(nulls: int) -> None:
+    """The dynamic and SMA models' loops on θ(t) from their beds built apart from the
+    fitter (:mod:`cranktrack.synthetic.free_swing`, :mod:`cranktrack.synthetic.sma_rig`),
+    in memory with the same AR(1) noise as :func:`open_world`: the dry friction and the
+    thermal lag at three sizes each, ``nulls`` null series per model, and each loop's
+    time on a minute of θ."""
+    from dataclasses import replace as with_
+
+    from cranktrack.models.heat import CurrentSteps
+    from cranktrack.synthetic.mechanism import measured_table
+
+    sigma, rho = 0.02, 0.5
+    current = CurrentSteps((0.5, 3.0), (1.3, 0.0))
+    sma_known = {"current_A": 1.3, "current_on_s": 0.5, "current_off_s": 3.0}
+
+    def free(mu: float, seed: int, t: np.ndarray) -> dict:
+        sc = FreeScenario()
+        crank = with_(sc.crank, friction_rad_s2=mu)
+        theta = crank.swing(t, np.radians(sc.theta_init_deg))[0]
+        d = sc.dynamics
+        table = measured_table(theta, t, sigma, seed=seed, correlation=rho, L1_mm=d.L1,
+                               L2_mm=d.L2)
+        return close_loop(table, {}, "dynamic").to_dict()
+
+    def sma(lag: float, seed: int, t: np.ndarray, known: dict = sma_known,
+            on: CurrentSteps = current) -> dict:
+        rig = with_(SMAScenario().rig, thermal_lag_s=lag)
+        theta = rig.response(t, lambda s: float(on(s)))[0]
+        table = measured_table(theta, t, sigma, seed=seed, correlation=rho, L1_mm=rig.L1_mm,
+                               L2_mm=rig.L2_mm)
+        return close_loop(table, known, "sma").to_dict()
+
+    cases = [("dynamic", "coulomb_rad_s2", free, (0.2, 0.4, 0.8), np.arange(180) / FPS),
+             ("sma", "thermal_lag_s", sma, (0.1, 0.2, 0.5), np.arange(150) / FPS)]
+    for model, effect, run, sizes, t in cases:
+        t0 = time.perf_counter()
+        false = sum(bool(run(0.0, 2000 + k, t)["effects"]) for k in range(nulls))
+        print(f"\n{model} model, its bed built apart from the fitter (σ {sigma}°, lag-1 "
+              f"correlation {rho}): {false} false discoveries on {nulls} nulls")
+        for size in sizes:
+            r = run(size, 1, t)
+            p = r["parameters"].get(effect, {})
+            print(f"  {effect} = {size:g}: named {r['effects'] or 'none'}"
+                  + (f", fitted {p['value']:.4g} ({100 * (p['value'] / size - 1):+.1f} %)"
+                     if "value" in p else "")
+                  + f"; rmse after {r['rmse_after_deg']:.4f}°"
+                  + (f"; unexplained: {r['leftover']['sentence'][:80]}" if r["unexplained"]
+                     else ""))
+        print(f"  ({time.perf_counter() - t0:.0f} s)")
+    minute = np.arange(1800) / FPS
+    t0 = time.perf_counter()
+    free(0.4, 0, minute)
+    print(f"\ndynamic loop on a minute of θ (1800 frames): {time.perf_counter() - t0:.1f} s "
+          "(fit only)")
 
 
 def main_bench() -> None:
@@ -359,7 +414,8 @@ def main_bench() -> None:
     ap.add_argument("--spool-only", action="store_true",
                     help="only the spool model's confusion matrix, nulls and ladders")
     ap.add_argument("--open-world", action="store_true",
-                    help="only the loop on the mechanism's physics in memory (about 2 min)")
+                    help="only the loops on physics written apart from the fitter, in memory "
+                    "(spool, dynamic and sma beds; about 6 min)")
     ap.add_argument("--sma-only", action="store_true",
                     help="only the SMA model's null renders and ladders (slow: ~2 min a fit)")
     args = ap.parse_args()
@@ -371,6 +427,7 @@ def main_bench() -> None:
         return
     if args.open_world:
         open_world(max(60, args.seeds))
+        open_world_models(args.seeds)
         return
     t0 = time.perf_counter()
     rows = []
