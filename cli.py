@@ -109,11 +109,11 @@ def _show_progress() -> bool:
 
 
 @contextmanager
-def _progress(desc: str, total: int | None = None):
+def _progress(desc: str, total: int | None = None, unit: str = "frame"):
     """A tqdm bar on a terminal; nothing in CI or when piped."""
     from tqdm import tqdm
 
-    bar = tqdm(total=total, desc=desc, unit="frame", disable=not _show_progress(),
+    bar = tqdm(total=total, desc=desc, unit=unit, disable=not _show_progress(),
                file=sys.stderr, leave=False)
     try:
         yield bar
@@ -507,7 +507,12 @@ def cmd_fit(args: argparse.Namespace) -> int:
     known = parse_known(args.known, args.model)
     from .report.fit import fit_report
 
-    result, files = fit_run(Path(args.run), args.model, known)
+    with _progress(f"fit {args.model}", unit="fit") as bar:
+        def fitting(effects: tuple[str, ...]) -> None:
+            bar.set_postfix_str(" + ".join(("base", *effects)), refresh=False)
+            bar.update(1)
+
+        result, files = fit_run(Path(args.run), args.model, known, on_fit=fitting)
     _print_fit(fit_report(result))
     if args.rerun:
         spawn = args.rerun == "spawn"

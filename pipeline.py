@@ -325,11 +325,14 @@ def camera_view(run: Path, tracks: pd.DataFrame | None = None,
     return CameraView(cal.plane_points, cal.image_points, size, A, C, side)
 
 
-def fit_run(run: Path, model: str, known: dict[str, float]) -> tuple[LoopResult, list[Path]]:
+def fit_run(run: Path, model: str, known: dict[str, float],
+            on_fit: Callable[[tuple[str, ...]], None] | None = None
+            ) -> tuple[LoopResult, list[Path]]:
     """Close the loop on ``run/kinematics.csv``; write ``run/fit/`` and refresh the report.
 
     The tracks and ``run.json`` are read once, for the camera candidates' image
-    geometry and the frame-motion check."""
+    geometry and the frame-motion check. ``on_fit(effects)`` is called before each
+    of the loop's fits (for progress)."""
     # The loop's and the report's libraries (scipy.optimize, statsmodels, matplotlib) are
     # imported here, not at the top: `track` starts on the first frame without them.
     from .loop.frame_motion import frame_shake
@@ -346,7 +349,7 @@ def fit_run(run: Path, model: str, known: dict[str, float]) -> tuple[LoopResult,
     info = folder.read_json(RUN_INFO)
     view = camera_view(folder.path, tracks, info) if tracks is not None and info else None
     result = close_loop(measured, known, model, context=_image_context(measured, tracks, info),
-                        view=view)
+                        view=view, on_fit=on_fit)
     try:
         shake = frame_shake(tracks) if tracks is not None else None
     except (OSError, ValueError):

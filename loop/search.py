@@ -296,7 +296,8 @@ class LoopResult:
 def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
                model: str = "spool", context: dict[str, NDArray] | None = None,
                candidates: dict[str, Candidate] | None = None,
-               view: CameraView | None = None) -> LoopResult:
+               view: CameraView | None = None,
+               on_fit: Callable[[tuple[str, ...]], None] | None = None) -> LoopResult:
     """Fit the base model to measured θ(t), then add effects while the evidence says so.
 
     Parameters
@@ -319,6 +320,9 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
         :data:`CAMERA_CANDIDATES` when ``view`` is given).
     view : CameraView, optional
         The run's image geometry, which the camera candidates need.
+    on_fit : callable, optional
+        Called with the effects of each model about to be fitted (``()`` for the
+        base model), for a progress display: a loop runs tens of fits.
 
     Raises
     ------
@@ -354,7 +358,7 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
     sig = measured[noise_col].to_numpy(float)[ok] if noise_col else np.full(t.size, np.nan)
     tracker_deg = float(np.nanmedian(sig)) if np.isfinite(sig).any() else 0.0
     fitter = _Fitter(t, theta, simulate, spec, held, candidates,
-                     spec.guesses(t, theta, measured, held))
+                     spec.guesses(t, theta, measured, held), on_fit)
     base = fitter.fit((), fitter.guess)
     if base is None:
         raise CranktrackError(f"no {model} model with these known values reproduces the "
@@ -405,8 +409,10 @@ class _Fitter:
 
     def __init__(self, t: NDArray, theta: NDArray, simulate: Callable, spec: ModelSpec,
                  held: dict[str, float], candidates: dict[str, Candidate],
-                 guesses: list[dict]) -> None:
+                 guesses: list[dict],
+                 on_fit: Callable[[tuple[str, ...]], None] | None = None) -> None:
         self.t, self.theta, self.simulate, self.spec = t, theta, simulate, spec
+        self.on_fit = on_fit
         self.held, self.candidates = held, candidates
         self.guesses, self.guess = guesses, guesses[0]
         span = float(t[-1] - t[0])
@@ -419,6 +425,8 @@ class _Fitter:
         """The model with ``effects`` fitted from ``start_from`` (and the data's guesses)."""
         key = (tuple(sorted(effects)), tuple(sorted(start_from.items())))
         if key not in self._cache:
+            if self.on_fit:
+                self.on_fit(effects)
             self._cache[key] = self._fit(effects, start_from)
         fit = self._cache[key]
         return None if fit is None else replace(fit, effects=effects)

@@ -243,3 +243,10 @@ def test_the_sma_model_finds_a_thermal_lag_it_did_not_render(lag_s):
         assert abs(fitted - lag_s) < 0.15 * lag_s
     else:
         assert result["effects"] == []
+
+
+def test_the_loop_reports_each_fit_it_starts():
+    # What `cranktrack fit` shows as progress: the base model first, then the effects.
+    calls: list[tuple[str, ...]] = []
+    close_loop(_free_table(0.3, seed=4), {}, model="dynamic", on_fit=calls.append)
+    assert calls[0] == () and ("coulomb_rad_s2",) in calls
