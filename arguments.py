@@ -24,34 +24,29 @@ def _size(text: str) -> tuple[int, int]:
     return w, h
 
 
-def _positive(text: str) -> float:
+def _number(text: str, whole: bool, zero_ok: bool) -> float:
+    """One option's number: a float (or whole number) > 0, or ≥ 0 with ``zero_ok``."""
     try:
-        v = float(text)
+        v = int(text) if whole else float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not v > 0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be positive")
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a {'whole ' if whole else ''}number") from None
+    if not (v >= 0 if zero_ok else v > 0):  # NaN fails both
+        raise argparse.ArgumentTypeError(
+            f"{text!r} must be {'0 or more' if zero_ok else 'positive'}")
     return v
+
+
+def _positive(text: str) -> float:
+    return _number(text, whole=False, zero_ok=False)
 
 
 def _count(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be 0 or more")
-    return v
+    return int(_number(text, whole=True, zero_ok=True))
 
 
 def _non_negative(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not v >= 0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be 0 or more")
-    return v
+    return _number(text, whole=False, zero_ok=True)
 
 
 def _time_or_frame(text: str) -> tuple[float, str]:
