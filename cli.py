@@ -529,9 +529,9 @@ def cmd_calibrate_camera(args: argparse.Namespace) -> int:
 
 
 def cmd_calibrate_plane(args: argparse.Namespace) -> int:
-    import cv2
     import pandas as pd
 
+    from .calibration.camera import read_grey
     from .calibration.file import load_camera, save_calibration
     from .calibration.plane import board_plane, points_plane
 
@@ -548,19 +548,14 @@ def cmd_calibrate_plane(args: argparse.Namespace) -> int:
             raise CranktrackError("give the image size with the plane photo, or --camera")
         size = camera.image_size if camera is not None else None
         if args.image:
-            img = cv2.imread(args.image, cv2.IMREAD_GRAYSCALE)
-            if img is None:
-                raise CranktrackError(f"{args.image} is not an image OpenCV can read")
+            img = read_grey(args.image)
             size = (img.shape[1], img.shape[0])
         cal = points_plane(pts[:, :2], pts[:, 2:], size, camera)
     else:
         if args.image is None:
             raise CranktrackError("give a photo of the board lying in the mechanism's plane, "
                                   "or --points")
-        grey = cv2.imread(args.image, cv2.IMREAD_GRAYSCALE)
-        if grey is None:
-            raise CranktrackError(f"{args.image} is not an image OpenCV can read")
-        cal = board_plane(grey, _board(args), camera)
+        cal = board_plane(read_grey(args.image), _board(args), camera)
     path = save_calibration(args.out, cal)
     q = cal.quality
     print(f"plane from {q['points']} points: homography residual "

@@ -152,8 +152,17 @@ FLAG_NAMES = {"fix_aspect_ratio": cv2.CALIB_FIX_ASPECT_RATIO,
               "fix_k3": cv2.CALIB_FIX_K3}
 
 
-def _grey(path: Path) -> NDArray[np.uint8]:
-    img = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+def read_grey(path: str | os.PathLike) -> NDArray[np.uint8]:
+    """A photo as 8-bit grey. Decoded from its bytes, so a file OpenCV cannot read is
+    our one sentence, not OpenCV's warning on stderr as well."""
+    path = Path(path)
+    if not path.is_file():
+        raise CranktrackError(f"{path} does not exist (or is not a file)")
+    try:
+        data = np.fromfile(path, np.uint8)
+    except OSError as e:
+        raise CranktrackError(f"{path} cannot be read ({e.strerror or e})") from None
+    img = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data.size else None
     if img is None:
         raise CranktrackError(f"{path} is not an image OpenCV can read")
     return img
@@ -179,9 +188,7 @@ def calibrate_camera(images: list[str | os.PathLike], board: Board,
     obj, img, names, skipped = [], [], [], []
     size = None
     for p in map(Path, images):
-        if not p.is_file():
-            raise CranktrackError(f"{p} does not exist")
-        grey = _grey(p)
+        grey = read_grey(p)
         this = (grey.shape[1], grey.shape[0])
         if size is None:
             size = this

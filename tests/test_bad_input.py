@@ -355,3 +355,11 @@ def test_ctrl_c_during_a_render_leaves_no_half_video_and_no_empty_folder(tmp_pat
     with pytest.raises(KeyboardInterrupt):
         render_scene(SpoolScenario(), tmp_path / "kept", settings, on_frame=stopped)
     assert [p.name for p in (tmp_path / "kept").iterdir()] == ["notes.txt"]
+
+
+@pytest.mark.parametrize("photo", ["missing.png", "garbage.png"])
+def test_a_plane_photo_that_is_not_there_or_not_an_image_is_our_sentence_only(tmp_path, photo):
+    (tmp_path / "garbage.png").write_text("not a picture")
+    p = _run("calibrate", "plane", str(tmp_path / photo), "--out", str(tmp_path / "p.json"))
+    assert p.returncode == 1 and p.stderr.count("\n") == 1  # no OpenCV WARN line before it
+    assert photo in p.stderr and "Traceback" not in p.stderr
