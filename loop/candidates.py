@@ -186,7 +186,8 @@ DYNAMIC_BASE = {
 #: The effects the free-response model can be extended by.
 DYNAMIC_CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
     Candidate("coulomb_rad_s2", "physical",
-              (Parameter("coulomb_rad_s2", "rad/s²", 0.0, 1e3),), ((0.2,), (0.5,), (1.0,)), 0.0,
+              (Parameter("coulomb_rad_s2", "rad/s²", 0.0, 1e3),),
+              ((0.1,), (0.3,), (1.0,), (3.0,)), 0.0,
               (0.0, 1e3),
               "the swing shrinks by the same angle every half cycle instead of by the same "
               "fraction, and the crank stops off the springs' equilibrium",

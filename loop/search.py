@@ -439,8 +439,11 @@ class _Fitter:
                   for p in self.candidates[name].parameters]
             free += ps
             have = [start_from.get(p.name) for p in ps]
+            # The library's starts, and any the data's guesses give for this effect.
+            own = [tuple(g[p.name] for p in ps) for g in self.guesses[:1]
+                   if all(p.name in g for p in ps)]
             lists.append([tuple(have)] if all(h is not None for h in have)
-                         else list(self.candidates[name].starts))
+                         else [*self.candidates[name].starts, *own])
         # Each effect's starting values in turn (the longest list sets how many).
         width = max((len(x) for x in lists), default=1)
         effect_starts = [sum((x[i % len(x)] for x in lists), ()) for i in range(width)]

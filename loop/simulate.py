@@ -196,6 +196,11 @@ def _dynamic_guesses(t: NDArray, theta: NDArray, measured: pd.DataFrame,
     if peaks.size >= 3 and peaks[-1] > 0:
         delta = float(np.log(peaks[0] / peaks[-1])) / (peaks.size - 1)
         zetas.insert(0, float(np.clip(delta / np.hypot(np.pi, delta), 0.01, 0.7)))
+        # The same decay as dry friction alone, which costs 2μ/ωn² of amplitude every
+        # half swing: a start for that effect's fit (its least squares has a valley
+        # for each number of swings before the crank sticks).
+        loss = float(np.radians(peaks[0] - peaks[-1])) / (peaks.size - 1)
+        base["coulomb_rad_s2"] = 0.5 * loss * wn**2
     return [{**base, "k_d": 2.0 * zeta * wn} for zeta in zetas]
 
 
