@@ -419,7 +419,10 @@ def _between_frames() -> Iterator[list[bool]]:
     try:
         yield asked
     finally:
-        signal.signal(signal.SIGINT, previous)
+        # None: the handler before was not set from Python and cannot be put back;
+        # Python's own (KeyboardInterrupt) is the nearest.
+        signal.signal(signal.SIGINT, signal.default_int_handler if previous is None
+                      else previous)
 
 
 def _locate_markers(frame: Frame, state: TrackerState) -> list:
