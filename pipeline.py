@@ -184,10 +184,13 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
     state_path = folder / TRACKER_STATE
     saved = _load_state(state_path, video) if resume else None
 
-    def checkpoint(state: TrackerState) -> None:
-        write_csv_atomic(folder / TRACKS, tracks_table(state.rows, specs))
+    def save_state(state: TrackerState) -> None:
         write_text_atomic(state_path, pickle.dumps({"video": str(Path(video).resolve()),
                                                     "state": state}))
+
+    def checkpoint(state: TrackerState) -> None:
+        write_csv_atomic(folder / TRACKS, tracks_table(state.rows, specs))
+        save_state(state)
 
     try:
         result = track(source, specs, on_frame=on_frame, resume=saved, checkpoint=checkpoint,
@@ -196,7 +199,7 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
         if e.state.rows:
             checkpoint(e.state)
         raise
-    checkpoint(result.state)  # the finished state: a Ctrl-C in a later step resumes
+    save_state(result.state)  # the finished state: a Ctrl-C in a later step resumes
     tracks = result.tracks
     names = tuple(s.name for s in specs)
     if fill_gaps_frames > 0:

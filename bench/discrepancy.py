@@ -358,11 +358,11 @@ def open_world_models(nulls: int) -> None:
     time on a minute of θ."""
     from dataclasses import replace as with_
 
-    from cranktrack.models.heat import CurrentSteps
     from cranktrack.synthetic.mechanism import measured_table
+    from cranktrack.synthetic.sma_rig import current_step
 
     sigma, rho = 0.02, 0.5
-    current = CurrentSteps((0.5, 3.0), (1.3, 0.0))
+    current = current_step(1.3, 0.5, 3.0)
     sma_known = {"current_A": 1.3, "current_on_s": 0.5, "current_off_s": 3.0}
 
     def free(mu: float, seed: int, t: np.ndarray) -> dict:
@@ -374,10 +374,9 @@ def open_world_models(nulls: int) -> None:
                                L2_mm=d.L2)
         return close_loop(table, {}, "dynamic").to_dict()
 
-    def sma(lag: float, seed: int, t: np.ndarray, known: dict = sma_known,
-            on: CurrentSteps = current) -> dict:
+    def sma(lag: float, seed: int, t: np.ndarray, known: dict = sma_known) -> dict:
         rig = with_(SMAScenario().rig, thermal_lag_s=lag)
-        theta = rig.response(t, lambda s: float(on(s)))[0]
+        theta = rig.response(t, current)[0]
         table = measured_table(theta, t, sigma, seed=seed, correlation=rho, L1_mm=rig.L1_mm,
                                L2_mm=rig.L2_mm)
         return close_loop(table, known, "sma").to_dict()

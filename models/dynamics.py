@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 from numba import njit
@@ -191,12 +190,6 @@ class CrankDynamics:
         ev = np.linalg.eigvals(self.jacobian(theta_e)).astype(complex)
         return ev[np.lexsort((ev.real, ev.imag))]
 
-    def solution(self, t_end: float, theta_init: float, omega_init: float = 0.0,
-                 rtol: float = 1e-10, atol: float = 1e-12):
-        """A dense RK45 solution from t = 0 to ``t_end``: call it with times, get
-        rows (θ, θ'). Cached, so a renderer asking frame by frame integrates once."""
-        return _dense(self, float(t_end), float(theta_init), float(omega_init), rtol, atol)
-
     def simulate(self, t_s: ArrayLike, theta_init: float, omega_init: float = 0.0,
                  rtol: float = 1e-10, atol: float = 1e-12) -> tuple[NDArray, NDArray]:
         """θ(t), θ'(t) from Dormand–Prince (RK45) at tight tolerances; with dry
@@ -230,14 +223,3 @@ def classify(eigenvalues: ArrayLike, tol: float = 1e-9) -> str:
             return "unstable node"
         return "degenerate"
     return "stable focus" if re.max() < 0 else "unstable focus"
-
-
-@lru_cache(maxsize=32)
-def _dense(dyn: CrankDynamics, t_end: float, theta_init: float, omega_init: float,
-           rtol: float, atol: float):
-    sol = solve_ivp(lambda _, y: [y[1], float(dyn.accel(y[0], y[1]))], (0.0, t_end),
-                    [theta_init, omega_init], method="RK45", dense_output=True, rtol=rtol,
-                    atol=atol)
-    if not sol.success:
-        raise RuntimeError(f"integration failed: {sol.message}")
-    return sol.sol

@@ -20,11 +20,10 @@ from scipy.interpolate import CubicHermiteSpline
 from ..models.antagonistic import AntagonisticBed, simulate_antagonistic
 from ..models.crank_slider import crank_state, l3_from_theta
 from ..models.dynamics import CrankDynamics
-from ..models.heat import CurrentSteps
 from ..models.sma_bed import SMABed
 from ..models.spool import SpoolDrive
 from .free_swing import SwingingCrank
-from .sma_rig import SMARig, SMAWireParts
+from .sma_rig import SMARig, SMAWireParts, current_step
 
 
 @dataclass(frozen=True)
@@ -171,16 +170,13 @@ class SMAScenario:
     off_s: float = 3.0
     name: str = "sma"
 
-    @property
-    def current(self) -> CurrentSteps:
-        return CurrentSteps((self.on_s, self.off_s), (self.current_A, 0.0))
-
     def motion(self, t_s: ArrayLike) -> Motion:
         """Motion at times ``t_s`` (s, from 0), from one dense solution per clip (the
         renderer asks frame by frame): cubic Hermite in θ with ω as its slope, and in ω
         with α as its slope, on a 1 ms grid."""
         t = np.asarray(t_s, dtype=float)
-        theta, omega, alpha = _sma_response(self.rig, self.current, _horizon(t))(t)
+        theta, omega, alpha = _sma_response(self.rig, (self.current_A, self.on_s, self.off_s),
+                                            _horizon(t))(t)
         return motion_from_angle(t, theta, omega, alpha, self.bed.L1, self.bed.L2)
 
     @property
@@ -276,10 +272,11 @@ def _free_swing(crank: SwingingCrank, theta_init: float, omega_init: float, t_en
 
 
 @lru_cache(maxsize=8)
-def _sma_response(rig: SMARig, current: CurrentSteps, t_end: float
+def _sma_response(rig: SMARig, step: tuple[float, float, float], t_end: float
                   ) -> Callable[[NDArray], tuple[NDArray, NDArray, NDArray]]:
-    """θ, θ', θ'' at any times up to ``t_end``, from one integration on a 1 ms grid."""
+    """θ, θ', θ'' at any times up to ``t_end`` under the current step (A, on s, off s),
+    from one integration on a 1 ms grid."""
     grid = np.arange(0.0, t_end + 1e-3, 1e-3)
-    theta, omega, alpha = rig.response(grid, lambda s: float(current(s)))
+    theta, omega, alpha = rig.response(grid, current_step(*step))
     th_of, om_of = CubicHermiteSpline(grid, theta, omega), CubicHermiteSpline(grid, omega, alpha)
     return lambda t: (th_of(t), om_of(t), om_of(t, 1))

@@ -38,6 +38,11 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import CubicHermiteSpline
 
 
+def current_step(amps: float, on_s: float, off_s: float) -> Callable[[float], float]:
+    """The current (A) at time t (s): ``amps`` from ``on_s`` until ``off_s``, else 0."""
+    return lambda t: amps if on_s <= t < off_s else 0.0
+
+
 @dataclass(frozen=True)
 class SMAWireParts:
     """The wire as a lab sheet gives it (defaults: thesis Tables 4.2/4.4).

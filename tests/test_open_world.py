@@ -213,12 +213,12 @@ SMA_KNOWN = {"current_A": 1.3, "current_on_s": 0.5, "current_off_s": 3.0}
 
 
 def _sma_theta(lag_s: float, t: np.ndarray) -> np.ndarray:
-    from cranktrack.models.heat import CurrentSteps
     from cranktrack.models.sma_bed import SMABed
     from cranktrack.synthetic.scenarios import SMAScenario
+    from cranktrack.synthetic.sma_rig import current_step
 
     scenario = SMAScenario(bed=SMABed(thermal_lag_s=lag_s))
-    return scenario.rig.response(t, lambda s: float(CurrentSteps((0.5, 3.0), (1.3, 0.0))(s)))[0]
+    return scenario.rig.response(t, current_step(1.3, 0.5, 3.0))[0]
 
 
 def test_the_sma_rig_and_the_fitters_bed_agree_where_the_physics_is_the_same():
