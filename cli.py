@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shlex
 import sys
 import tempfile
 from collections.abc import Callable, Iterable, Sequence
@@ -310,8 +311,9 @@ def cmd_inspect(args: argparse.Namespace) -> int:
               "most marker-like first")
         print(_format_table(rows))
         picks = " ".join(f"--marker {m}" for m in table["marker"].head(3))
-        print(f"\nrename the ones you want and track them, e.g.:\n  cranktrack track {video} "
-              f"{picks} --out run")
+        # Quoted, so that a path with spaces (Tracker's examples have them) pastes.
+        print("\nrename the ones you want and track them, e.g.:\n  cranktrack track "
+              f"{shlex.quote(str(video))} {picks} --out run")
     print(f"wrote {out}")
     return 0
 

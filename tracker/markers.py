@@ -175,18 +175,50 @@ class Blob:
 
 def find_blobs(hsv: NDArray[np.uint8], spec: MarkerSpec, x0: int = 0, y0: int = 0
                ) -> list[Blob]:
-    """Blobs of ``spec``'s colour in an HSV image (or patch whose top-left is x0, y0)."""
+    """Blobs of ``spec``'s colour in an HSV image (or patch whose top-left is x0, y0).
+
+    A blob that is not disc-like but holds a disc that fills most of it (a ball on
+    a stalk of its own colour, a bead on its string) is given as that disc: the
+    largest circle inside it, by the distance transform (centre to the pixel,
+    radius to a pixel or so), for the refinement to take from there.
+    """
     mask = spec.mask(hsv)
-    n, _, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    n, labels, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
     blobs = []
+    dist = None
     for k in range(1, n):
         area = float(stats[k, cv2.CC_STAT_AREA])
         if area < spec.min_area_px:
             continue
         w, h = stats[k, cv2.CC_STAT_WIDTH], stats[k, cv2.CC_STAT_HEIGHT]
-        blobs.append(Blob(float(centroids[k][0]) + x0, float(centroids[k][1]) + y0, area,
-                          area / float(w * h), float(w) / float(h)))
+        blob = Blob(float(centroids[k][0]) + x0, float(centroids[k][1]) + y0, area,
+                    area / float(w * h), float(w) / float(h))
+        if not blob.disc_like():
+            if dist is None:
+                dist = cv2.distanceTransform(mask, cv2.DIST_L2, 5)
+            blob = _core(blob, labels, dist, k, stats[k], x0, y0)
+        blobs.append(blob)
     return blobs
+
+
+#: A blob whose largest inner disc covers at least this fraction of it is taken
+#: as that disc with something attached (a stalk), not as some other shape.
+CORE_FRACTION = 0.4
+
+
+def _core(blob: Blob, labels: NDArray, dist: NDArray, k: int, box: NDArray,
+          x0: int, y0: int) -> Blob:
+    """The largest disc inside blob ``k`` if it fills most of it, else the blob."""
+    bx, by, bw, bh = (int(v) for v in box[:4])
+    d = np.where(labels[by:by + bh, bx:bx + bw] == k, dist[by:by + bh, bx:bx + bw], 0.0)
+    i, j = np.unravel_index(int(np.argmax(d)), d.shape)
+    # The distance is to the nearest pixel outside, so the inner disc's radius is
+    # about half a pixel more.
+    radius = float(d[i, j]) + 0.5
+    if radius < 2.0 or np.pi * radius**2 < CORE_FRACTION * blob.area:
+        return blob
+    return Blob(float(bx + j + x0), float(by + i + y0), float(np.pi * radius**2),
+                float(np.pi / 4), 1.0)
 
 
 def choose_blob(blobs: list[Blob], expected_area: float | None = None,

@@ -70,6 +70,9 @@ class Centre:
     #: Σα over the fit window, px²: the visible marker area, whatever the fit's
     #: radius/blur/gain trade-off (a partly covered marker shows less).
     area: float = np.nan
+    #: The circle through the rim (:mod:`.outline`), not the disc fit: its robust
+    #: fit has already weighed out what covers or sticks to the marker.
+    rim: bool = False
 
 
 def weighted_centroid(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],

@@ -34,6 +34,7 @@ from .markers import (
     learn_spec,
     white_balance_gains,
 )
+from .outline import fit_outline, rim_coverage, shaded
 from .refine import (
     Centre,
     fit_disc,
@@ -77,7 +78,11 @@ class _MarkerState:
     learned: bool = False
     radius: float | None = None  # from the first fit, px
     history: list[tuple[float, float, float]] = field(default_factory=list)  # (t, x, y)
+    missed: int = 0  # frames since the last fix (or since the start, never found)
     shape: tuple[float, ...] | None = None  # last fitted disc parameters
+    #: Centred by its rim (a shaded ball: the disc fit is pulled toward the light)?
+    #: None until decided at the first acquisition.
+    rim: bool | None = None
     marker: NDArray | None = None  # learned marker chroma
     residual: float | None = None  # usual RMS residual of the disc fit
     area_alpha: float | None = None  # usual visible area Σα, px²
@@ -89,7 +94,10 @@ class _MarkerState:
         return None if self.radius is None else float(np.pi * self.radius**2)
 
     def whole(self, centre: Centre) -> bool:
-        """Does the fit look like the whole marker: its usual visible area and residual?"""
+        """Does the fit look like the whole marker: its usual visible area and residual?
+        (A rim fit has weighed out what covers the marker already.)"""
+        if centre.rim:
+            return True
         if self.area_alpha is not None and np.isfinite(centre.area):
             if not 1 - AREA_TOLERANCE <= centre.area / self.area_alpha <= 1 + AREA_TOLERANCE:
                 return False
@@ -102,7 +110,7 @@ class _MarkerState:
         if np.isfinite(centre.rms_residual):
             self.residual = (centre.rms_residual if self.residual is None
                              else 0.9 * self.residual + 0.1 * centre.rms_residual)
-        if np.isfinite(centre.area):
+        if np.isfinite(centre.area) and not centre.rim:
             self.area_alpha = (centre.area if self.area_alpha is None
                                else 0.9 * self.area_alpha + 0.1 * centre.area)
         self.shape = centre.params
@@ -110,11 +118,13 @@ class _MarkerState:
             self.marker = seen if self.marker is None else 0.9 * self.marker + 0.1 * seen
 
     def predict(self, t: float) -> tuple[float, float] | None:
-        """Constant-velocity prediction from the last two fixes (px)."""
+        """Constant-velocity prediction from the last two fixes (px); the last fix
+        itself once the marker has been lost for more than a frame or two (a
+        velocity carried on blindly takes the search away from where it was)."""
         if not self.history:
             return None
         t1, x1, y1 = self.history[-1]
-        if len(self.history) < 2:
+        if len(self.history) < 2 or self.missed > 2:
             return x1, y1
         t0, x0, y0 = self.history[-2]
         if t1 <= t0:
@@ -145,7 +155,7 @@ def patch_around(image: Frame | NDArray, cx: float, cy: float, half: float
 
 def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius: float,
            marker: NDArray | None = None, init: tuple[float, ...] | None = None,
-           edges: bool | None = None, luminance: bool = False
+           edges: bool | None = None, luminance: bool = False, rim: bool | None = None
            ) -> tuple[Centre, NDArray | None]:
     """Sub-pixel centre of a marker near ``guess`` (see :mod:`.refine`).
 
@@ -161,6 +171,12 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     chroma's resolution instead (:func:`.refine.fit_disc_cells`).
     ``luminance`` unmixes brightness instead of chroma (a white or black marker:
     luminance is stored at full resolution, so no chroma-cell refit).
+    With ``rim`` True the centre is the circle through the marker's rim
+    instead (:func:`.outline.fit_outline`: a shaded ball, a bead on its
+    string); with ``rim`` None (not yet known which the marker is) that circle
+    is taken where the disc fit fails; with False never (a flat marker whose
+    disc fit fails is partly hidden, and its rim would be half the cover's
+    edge).
     Returns the centre and the chroma seen in its middle.
     """
     patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
@@ -172,6 +188,8 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
             return c, seen
         guess = (c.x, c.y)
         alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance)
+    if rim is True:
+        return _rim(image, guess, radius, marker, luminance), seen
     if edges is None:
         # On 4:2:0 H.264 a moving marker's luminance edge is off by 2–3× what the
         # fit's residual says (bench/luminance.py): only full-chroma frames use it.
@@ -197,9 +215,32 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     elif fit.ok and cells:
         # The decoder's own 4:2:0 planes: the chroma is refitted where it was stored.
         fit = fit_disc_cells(alpha, x0, y0, fit)
-    if fit.ok or c is None:
+    if fit.ok:
+        return fit, seen
+    if rim is None:
+        # Perhaps not a flat disc (a shaded ball, a bead on its string): its rim.
+        outline = _rim(image, guess, radius, marker, luminance)
+        if outline.ok:
+            return outline, seen
+    if c is None:
         return fit, seen
     return Centre(c.x, c.y, c.sigma, c.radius, True), seen
+
+
+def _rim(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius: float,
+         marker: NDArray | None, luminance: bool) -> Centre:
+    """The circle through the rim (:func:`.outline.fit_outline`) on the coverage
+    against one background (:func:`.outline.rim_coverage`), taken again around the
+    fitted centre while it moves by more than half a pixel."""
+    fit = Centre(np.nan, np.nan, np.nan, radius, False)
+    for _ in range(4):
+        patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
+        alpha = rim_coverage(patch, x0, y0, guess, radius, marker, luminance)
+        fit = fit_outline(alpha, x0, y0, guess, radius)
+        if not fit.ok or np.hypot(fit.x - guess[0], fit.y - guess[1]) <= 0.5:
+            break
+        guess = (fit.x, fit.y)
+    return fit
 
 
 def _honest(c: Centre) -> bool:
@@ -227,26 +268,34 @@ def _locate(frame: Frame, state: _MarkerState, t: float, hsv_cache: dict
             # Following: refine straight from the prediction; the colour search
             # is only needed when that fails (fast motion, occlusion, a jump).
             if r + 2 <= pred[0] <= w - r - 3 and r + 2 <= pred[1] <= h - r - 3:
+                luminance = bool(state.spec.tone)
                 centre, seen = refine(frame, pred, r, state.marker, init=state.shape,
-                                      luminance=bool(state.spec.tone))
+                                      luminance=luminance, rim=state.rim)
                 if _plausible(centre, pred, r):
                     if not state.whole(centre):
                         return None, "partly_covered"
                     state.remember(centre, seen)
                     return centre, "ok"
-            half = 3.0 * r + 2.0 * state.speed_px() + 4.0
+            half = _window(state)
             patch, x0, y0 = patch_around(frame, pred[0], pred[1], half)
             hsv = balanced_hsv(patch, hsv_cache.get("gains"))
             blob, status = choose_blob(find_blobs(hsv, state.spec, x0, y0), state.area, pred)
-    if blob is None:
+    whole_frame = blob is None
+    if whole_frame:
+        if not _search_whole_frame(state, pred):
+            return None, status
         blob, full_status = _full_frame_blob(frame, state, t, hsv_cache, pred)
         if blob is None:
             return None, status if status == "out_of_view" else full_status
     centre, seen, failure = _refine_blob(frame, state, blob, hsv_cache)
-    if failure and pred is not None:
+    if failure and pred is not None and (whole_frame or _search_whole_frame(state, pred)):
         # The blob nearest the prediction was not the marker (a hand, a reflection):
-        # the next nearest of its colour and size in the whole frame may be.
-        for other in _other_blobs(frame, state, hsv_cache, pred, blob):
+        # the next nearest of its colour and size may be. That needs the whole
+        # frame's colours, so only on a frame where the whole frame may be searched.
+        # With no velocity yet (seen once) the marker may be anywhere near: as wide
+        # as after a whole-frame search.
+        wide = whole_frame or len(state.history) < 2
+        for other in _other_blobs(frame, state, hsv_cache, pred, blob, wide):
             centre, seen, failure = _refine_blob(frame, state, other, hsv_cache)
             if not failure:
                 break
@@ -256,6 +305,30 @@ def _locate(frame: Frame, state: _MarkerState, t: float, hsv_cache: dict
         state.radius = centre.radius
     state.remember(centre, seen)
     return centre, "ok"
+
+
+#: A marker that is not where it was looked for is sought in the whole frame only
+#: every this many frames (and in each of the first ones of a video): a full-frame
+#: search costs as much as decoding the frame, so a marker that has left the view,
+#: or was never there, would otherwise slow every frame down.
+FULL_SEARCH_EVERY = 8
+
+
+def _window(state: _MarkerState) -> float:
+    """Half-width (px) of the window searched around the prediction: three radii and
+    twice the last step, doubled for each of the first two frames the marker has
+    been missed (wider than that costs as much as the whole-frame search)."""
+    r = state.radius or 0.0
+    return (3.0 * r + 2.0 * state.speed_px() + 4.0) * 2.0 ** min(state.missed, 2)
+
+
+def _search_whole_frame(state: _MarkerState, pred: tuple[float, float] | None) -> bool:
+    """Is this frame one where the whole frame is searched for the marker?"""
+    if pred is None or len(state.history) < 2:
+        # Not yet seen, or seen once, so with no velocity to say where to look (a
+        # thrown ball moves many radii a frame): each of the first frames.
+        return state.missed < FULL_SEARCH_EVERY or state.missed % FULL_SEARCH_EVERY == 0
+    return state.missed > 0 and state.missed % FULL_SEARCH_EVERY == 0
 
 
 def _full_hsv(frame: Frame, hsv_cache: dict) -> NDArray[np.uint8]:
@@ -286,12 +359,15 @@ def _full_frame_blob(frame: Frame, state: _MarkerState, t: float, hsv_cache: dic
 
 
 def _other_blobs(frame: Frame, state: _MarkerState, hsv_cache: dict,
-                 pred: tuple[float, float], tried: Blob, most: int = 3) -> list[Blob]:
-    """Blobs of the marker's colour, shape and size in the whole frame, nearest to the
-    prediction first, other than the one ``tried``, within reach: 20 radii plus three
-    times the last step (a thrown ball moves 15 radii a frame; a blob across the
-    image is another object of the same colour, not the marker)."""
-    reach = 20.0 * (state.radius or tried.radius) + 3.0 * state.speed_px()
+                 pred: tuple[float, float], tried: Blob, wide: bool, most: int = 3
+                 ) -> list[Blob]:
+    """Blobs of the marker's colour, shape and size, nearest to the prediction first,
+    other than the one ``tried``, within reach: the search window (:func:`_window`)
+    or, ``wide``, 20 radii plus three times the last step (a thrown ball moves 15
+    radii a frame). A blob farther off is another object of the same colour, not
+    the marker."""
+    reach = (20.0 * (state.radius or tried.radius) + 3.0 * state.speed_px() if wide
+             else np.sqrt(2.0) * _window(state))
     good = [b for b in find_blobs(_full_hsv(frame, hsv_cache), state.spec) if b.disc_like()
             and (not state.area or 0.3 * state.area <= b.area <= 3.0 * state.area)
             and np.hypot(b.x - tried.x, b.y - tried.y) > 1.0
@@ -310,8 +386,21 @@ def _refine_blob(frame: Frame, state: _MarkerState, blob: Blob, hsv_cache: dict
                                          radius + 3)
         state.spec = learn_spec(state.spec, hsv_patch, (blob.x, blob.y), radius, x0, y0)
         state.learned = True
-    centre, seen = refine(frame, (blob.x, blob.y), radius, state.marker,
-                          luminance=bool(state.spec.tone))
+    luminance = bool(state.spec.tone)
+    centre, seen = refine(frame, (blob.x, blob.y), radius, state.marker, luminance=luminance,
+                          rim=state.rim)
+    if state.rim is None and centre.ok:
+        # A flat marker's coverage is even over its middle; a shaded ball's falls
+        # away from the light, and pulls a disc fit toward it: that one is centred
+        # by its rim from now on (decided once, so that a flat marker partly hidden
+        # later is not taken for a ball: its rim would be half the cover's edge).
+        patch, x0, y0 = patch_around(frame, centre.x, centre.y, centre.radius + 9)
+        alpha, _ = local_coverage(patch, x0, y0, (centre.x, centre.y), centre.radius,
+                                  state.marker, luminance)
+        state.rim = shaded(alpha, x0, y0, (centre.x, centre.y), centre.radius)
+        if state.rim and not centre.rim:
+            centre, seen = refine(frame, (centre.x, centre.y), radius, state.marker,
+                                  luminance=luminance, rim=True)
     if not centre.ok or not _honest(centre) or (
             state.marker is not None and not GAIN_RANGE[0] < centre.gain < GAIN_RANGE[1]):
         return None, None, "refine_failed"
@@ -437,9 +526,12 @@ def _locate_markers(frame: Frame, state: TrackerState) -> list:
         state.balance["gains"] = hsv_cache.get("gains")
         if centre is None:
             values += [np.nan, np.nan, np.nan, False, status]
-            st.history = []  # a lost marker is searched for afresh
+            st.missed += 1  # searched for around its last fix, in a widening window
         else:
-            st.history = [*st.history[-1:], (frame.t_s, centre.x, centre.y)]
+            # After a loss the last fix is too old to give a velocity.
+            st.history = [*(st.history[-1:] if st.missed == 0 else []),
+                          (frame.t_s, centre.x, centre.y)]
+            st.missed = 0
             values += [centre.x, centre.y, centre.sigma, True, status]
             found.append((st, centre))
     _one_blob_each(found, state.markers, values, frame.t_s)
@@ -464,7 +556,7 @@ def _one_blob_each(found: list[tuple[_MarkerState, Centre]], markers: list[_Mark
     for k, st in enumerate(markers):
         if id(st) in clash:
             values[5 * k:5 * k + 5] = [np.nan, np.nan, np.nan, False, "same_blob"]
-            st.history = []
+            st.history, st.missed = [], 1  # neither fix is trusted: sought afresh
 
 
 def locate(frame: Frame | NDArray[np.uint8], markers: Sequence[MarkerSpec] = DEFAULT_MARKERS,

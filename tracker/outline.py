@@ -1,0 +1,262 @@
+"""A marker's outline: the circle through the rim of a ball, a shaded sphere or a
+disc with something attached to it.
+
+The blurred-disc fit of :mod:`.refine` expects a flat disc of one coverage. Real
+markers often are not: a ball or a rendered sphere is shaded, so its coverage
+falls from the middle to the rim; a bead on a string or an atom on a bond has a
+stalk of its own colour leaving it. There the disc fit fails or wanders, yet the
+rim is still a circle over most of its length.
+
+This finds the rim along rays from the centre, where the coverage falls most
+steeply (sub-pixel, a mean weighted by the fall), and fits a circle to those rim
+points by iteratively reweighted least squares with Tukey's biweight: rays that
+run out along a stalk or stop short at something in front are weighed out. σ of
+the centre is the fit's own covariance, with the rays' spacing chosen so that
+neighbouring rim points do not share the same pixels (about 2 px apart).
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from .refine import CHROMA_BASIS, LUMA_BASIS, Centre
+
+#: Tukey biweight tuning constant (95 % efficiency for Gaussian residuals).
+TUKEY_C = 4.685
+#: Smallest scale of the rim residuals used for weighting, px (a rim from a
+#: clean render can fit to ~0.01 px, which would weigh out sound rays).
+MIN_SCALE_PX = 0.15
+#: Fewest rim points kept for a fit to be trusted, and the fraction of rays.
+MIN_POINTS = 8
+MIN_FRACTION = 0.4
+
+
+def rim_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, float],
+                 radius: float, marker: NDArray | None = None, luminance: bool = False
+                 ) -> NDArray[np.float64]:
+    """Coverage of a patch by the marker's colour against one background: the median
+    colour on the ring ``radius`` + 3…5 px from ``centre`` (image px).
+
+    The disc fit's coverage (:func:`.refine.local_coverage`) takes a background
+    per ray, which follows uneven light but takes a stalk of the marker's own
+    colour lying under the ring for the background and loses that quarter of
+    the rim. The rim needs only where the colour ends, so one background, a
+    median that a stalk does not move, serves. ``marker`` is the learned marker
+    colour (chroma; luminance for ``luminance``), else the median of the
+    middle 0.6·``radius``. Every pixel of the patch gets a value.
+    """
+    basis = LUMA_BASIS if luminance else CHROMA_BASIS.astype(np.float64)
+    P = np.asarray(patch_rgb, np.float64) @ basis.T
+    h, w = P.shape[:2]
+    yy, xx = np.mgrid[0:h, 0:w]
+    rho = np.hypot(xx + x0 - centre[0], yy + y0 - centre[1])
+    ring = (rho >= radius + 3) & (rho <= radius + 5)
+    middle = rho <= 0.6 * radius
+    if ring.sum() < 8 or middle.sum() < 3:
+        return np.full((h, w), np.nan)
+    b = np.median(P[ring], axis=0)
+    m = np.asarray(marker, np.float64) if marker is not None else np.median(P[middle], axis=0)
+    d = m - b
+    return (P - b) @ d / max(float(d @ d), 1e-6)
+
+
+def rim_points(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float],
+               radius: float, rays: int) -> NDArray[np.float64]:
+    """Where each of ``rays`` rays from ``centre`` crosses the marker's rim.
+
+    Each ray is sampled every 0.25 px out to where α stops being defined. The
+    rim is the outermost place where α falls steeply: the drop over 2 px is at
+    least 0.6 of the ray's largest and at least 0.15 of the coverage in the
+    marker's middle (the 90th percentile of α within 0.7·``radius``). A shaded
+    ball's dark side falls from little coverage to none, its highlight dips
+    inside: a fixed level would put the rim inside on one and at the dip on
+    the other, the steepest fall does not. The place is the drop-weighted mean
+    over ±1 px around that fall. Returns (k, 2) image px; rays with no such
+    fall are left out.
+    """
+    h, w = alpha.shape
+    cx, cy = centre[0] - x0, centre[1] - y0
+    yy, xx = np.mgrid[0:h, 0:w]
+    inner = ((xx - cx) ** 2 + (yy - cy) ** 2 <= (0.7 * radius) ** 2) & np.isfinite(alpha)
+    if inner.sum() < 3:
+        return np.empty((0, 2))
+    peak = float(np.percentile(alpha[inner], 90))
+    if not peak > 0.1:
+        return np.empty((0, 2))
+    step, half = 0.25, 4  # samples per px, and 1 px in samples
+    reach = np.arange(0.0, 2.0 * radius + 4.0, step)
+    angles = np.linspace(0.0, 2.0 * np.pi, rays, endpoint=False)
+    dx, dy = np.cos(angles)[:, None], np.sin(angles)[:, None]
+    mx = (cx + dx * reach[None, :]).astype(np.float32)
+    my = (cy + dy * reach[None, :]).astype(np.float32)
+    # Undefined α (outside the unmixed window) reads as NaN and ends the ray there.
+    a = cv2.remap(np.asarray(alpha, np.float32), mx, my, cv2.INTER_LINEAR,
+                  borderMode=cv2.BORDER_CONSTANT, borderValue=np.nan)
+    drop = np.full_like(a, np.nan)
+    drop[:, half:-half] = a[:, :-2 * half] - a[:, 2 * half:]  # fall over 2 px, centred
+    points = []
+    for k in range(rays):
+        d = drop[k]
+        good = np.isfinite(d)
+        if not good.any():
+            continue
+        strongest = float(np.max(d[good]))
+        if strongest < 0.15 * peak:
+            continue
+        j = int(np.flatnonzero(good & (d >= 0.6 * strongest))[-1])
+        # That is on the fall's outer flank: walk in to its top.
+        while j > 0 and np.isfinite(d[j - 1]) and d[j - 1] > d[j]:
+            j -= 1
+        lo, hi = max(j - half, 0), min(j + half + 1, len(d))
+        wgt = np.where(np.isfinite(d[lo:hi]), np.clip(d[lo:hi], 0.0, None), 0.0)
+        if not wgt.sum() > 0:
+            continue
+        r = float((wgt * reach[lo:hi]).sum() / wgt.sum())
+        points.append((x0 + cx + r * dx[k, 0], y0 + cy + r * dy[k, 0]))
+    return np.asarray(points, np.float64).reshape(-1, 2)
+
+
+#: Triples of rim points tried for the least-median start; fixed, so that a frame
+#: always gives the same centre (a resumed run equals an uninterrupted one).
+_TRIPLES = np.random.default_rng(0).random((96, 3))
+
+
+def _least_median_circle(points: NDArray) -> NDArray[np.float64]:
+    """(cx, cy, R) of the circle through three of the points whose median
+    distance to all points is smallest (least median of squares)."""
+    n = len(points)
+    idx = np.minimum((_TRIPLES * n).astype(int), n - 1)
+    a, b, c = points[idx[:, 0]], points[idx[:, 1]], points[idx[:, 2]]
+    # The circumcentre of each triple (collinear or repeated triples drop out).
+    d = 2 * (a[:, 0] * (b[:, 1] - c[:, 1]) + b[:, 0] * (c[:, 1] - a[:, 1])
+             + c[:, 0] * (a[:, 1] - b[:, 1]))
+    sa, sb, sc = (v[:, 0] ** 2 + v[:, 1] ** 2 for v in (a, b, c))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ux = (sa * (b[:, 1] - c[:, 1]) + sb * (c[:, 1] - a[:, 1]) + sc * (a[:, 1] - b[:, 1])) / d
+        uy = (sa * (c[:, 0] - b[:, 0]) + sb * (a[:, 0] - c[:, 0]) + sc * (b[:, 0] - a[:, 0])) / d
+    r = np.hypot(a[:, 0] - ux, a[:, 1] - uy)
+    res = np.abs(np.hypot(points[None, :, 0] - ux[:, None], points[None, :, 1] - uy[:, None])
+                 - r[:, None])
+    med = np.where(np.isfinite(r) & (np.abs(d) > 1e-6), np.median(res, axis=1), np.inf)
+    k = int(np.argmin(med))
+    if not np.isfinite(med[k]):
+        cx, cy = points.mean(axis=0)
+        return np.array([cx, cy, float(np.mean(np.hypot(*(points - (cx, cy)).T)))])
+    return np.array([ux[k], uy[k], r[k]])
+
+
+def fit_circle(points: NDArray, iterations: int = 20
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Robust circle through rim points: ((cx, cy, R), 3×3 covariance, weights).
+
+    The least-median circle through triples of points starts it (a quarter of
+    the rays running up a stalk would pull any least-squares start off by a
+    pixel, and the reweighting then crawls back); Gauss–Newton steps on the geometric
+    distance, each reweighted by Tukey's biweight of the residual over
+    1.4826·MAD (at least :data:`MIN_SCALE_PX`), follow. The covariance is
+    s²·(JᵀWJ)⁻¹ with s² the weighted residual variance.
+    """
+    x, y = points[:, 0], points[:, 1]
+    p = _least_median_circle(points)
+    wts = np.ones(len(x))
+    for _ in range(iterations):
+        ex, ey = x - p[0], y - p[1]
+        rho = np.maximum(np.hypot(ex, ey), 1e-9)
+        res = rho - p[2]
+        scale = max(1.4826 * float(np.median(np.abs(res - np.median(res)))), MIN_SCALE_PX)
+        u = res / (TUKEY_C * scale)
+        wts = np.where(np.abs(u) < 1, (1 - u**2) ** 2, 0.0)
+        J = np.column_stack([-ex / rho, -ey / rho, -np.ones_like(x)])
+        JtW = J.T * wts
+        try:
+            step = np.linalg.solve(JtW @ J, -JtW @ res)
+        except np.linalg.LinAlgError:
+            break
+        p = p + step
+        if np.hypot(step[0], step[1]) < 1e-4:
+            break
+    ex, ey = x - p[0], y - p[1]
+    rho = np.maximum(np.hypot(ex, ey), 1e-9)
+    res = rho - p[2]
+    J = np.column_stack([-ex / rho, -ey / rho, -np.ones_like(x)])
+    kept = float(wts.sum())
+    s2 = float((wts * res**2).sum()) / max(kept - 3.0, 1.0)
+    try:
+        cov = s2 * np.linalg.inv((J.T * wts) @ J)
+    except np.linalg.LinAlgError:
+        cov = np.full((3, 3), np.nan)
+    return p, cov, wts
+
+
+def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
+                radius: float, passes: int = 2) -> Centre:
+    """The circle through a marker's rim in a coverage patch (see the module).
+
+    Rays are cast from ``guess`` (image px), then again from the fitted
+    centre. ``radius`` is the expected marker radius, px. The result is not
+    ``ok`` when fewer than :data:`MIN_POINTS` rim points (or
+    :data:`MIN_FRACTION` of the rays) keep weight, when the centre moved
+    more than ``radius`` or the fitted radius is outside 0.3–3× ``radius``.
+    The returned gain is the median coverage within half the fitted radius
+    (≈ 1 for a whole flat marker of the learned colour); ``rms_residual`` is
+    NaN, since a rim residual (px) is not comparable to a disc fit's (α).
+    """
+    rays = int(np.clip(round(math.pi * radius), 16, 96))
+    centre = guess
+    failed = Centre(np.nan, np.nan, np.nan, radius, False)
+    p = cov = None
+    for _ in range(passes):
+        pts = rim_points(alpha, x0, y0, centre, radius, rays)
+        if len(pts) < MIN_POINTS:
+            return failed
+        p, cov, wts = fit_circle(pts)
+        kept = int((wts > 0).sum())
+        if kept < max(MIN_POINTS, MIN_FRACTION * rays) or not np.all(np.isfinite(p)):
+            return failed
+        centre = (float(p[0]), float(p[1]))
+    var = 0.5 * (cov[0, 0] + cov[1, 1])
+    moved = math.hypot(p[0] - guess[0], p[1] - guess[1])
+    if not (np.isfinite(var) and var > 0 and moved < radius and 0.3 * radius < p[2] < 3 * radius):
+        return failed
+    h, w = alpha.shape
+    yy, xx = np.mgrid[0:h, 0:w]
+    middle = ((xx + x0 - p[0]) ** 2 + (yy + y0 - p[1]) ** 2 <= (0.5 * p[2]) ** 2) \
+        & np.isfinite(alpha)
+    gain = float(np.median(alpha[middle])) if middle.any() else float("nan")
+    area = float(np.nansum(alpha))
+    return Centre(float(p[0]), float(p[1]), float(math.sqrt(var)), float(p[2]), True,
+                  float("nan"), gain, (float(p[0]), float(p[1]), float(p[2]), 0.5, 1.0, 0.0),
+                  area, rim=True)
+
+
+#: Spread of the coverage over a marker's middle, (p90 − p10) / p90, above which it
+#: is shaded (a ball lit from one side), not a flat disc of one colour. Measured:
+#: 0.02–0.06 on the flat markers of an H.264 design render at 2.5 DN noise (up
+#: to 0.11 on a small red one, see below),
+#: 0.19–0.28 on the Jmol atoms of Tracker's jmoljana clip, 0.33–0.37 on the
+#: Lambert spheres of tests/test_real_footage_like.py.
+SHADED_SPREAD = 0.15
+#: Markers smaller than this (radius, px) are never judged shaded: their middle is
+#: a dozen pixels, over which H.264's half-resolution chroma is blurred (a flat
+#: red marker of radius 4.5 px reached a spread of 0.11 at its true centre).
+SHADED_MIN_RADIUS_PX = 8.0
+
+
+def shaded(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float],
+           radius: float) -> bool:
+    """Does the coverage vary across the marker's middle (within half its radius) as
+    on a shaded ball? Then its rim, not a flat disc, says where its centre is."""
+    if radius < SHADED_MIN_RADIUS_PX:
+        return False
+    h, w = alpha.shape
+    yy, xx = np.mgrid[0:h, 0:w]
+    middle = ((xx + x0 - centre[0]) ** 2 + (yy + y0 - centre[1]) ** 2 <= (0.5 * radius) ** 2) \
+        & np.isfinite(alpha)
+    if middle.sum() < 5:
+        return False
+    p10, p90 = np.percentile(alpha[middle], [10, 90])
+    return bool(p90 > 0 and (p90 - p10) / p90 > SHADED_SPREAD)
