@@ -401,6 +401,8 @@ def _refine_blob(frame: Frame, state: _MarkerState, blob: Blob, hsv_cache: dict
         if state.rim and not centre.rim:
             centre, seen = refine(frame, (centre.x, centre.y), radius, state.marker,
                                   luminance=luminance, rim=True)
+        elif not state.rim and centre.rim:
+            return None, None, "refine_failed"  # a flat marker's disc fit failed
     if not centre.ok or not _honest(centre) or (
             state.marker is not None and not GAIN_RANGE[0] < centre.gain < GAIN_RANGE[1]):
         return None, None, "refine_failed"
