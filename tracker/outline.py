@@ -37,7 +37,7 @@ MIN_FRACTION = 0.4
 
 def rim_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, float],
                  radius: float, marker: NDArray | None = None, luminance: bool = False
-                 ) -> NDArray[np.float64]:
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Coverage of a patch by the marker's colour against one background: the median
     colour on the ring ``radius`` + 3…5 px from ``centre`` (image px).
 
@@ -47,7 +47,9 @@ def rim_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, 
     the rim. The rim needs only where the colour ends, so one background, a
     median that a stalk does not move, serves. ``marker`` is the learned marker
     colour (chroma; luminance for ``luminance``), else the median of the
-    middle 0.6·``radius``. Every pixel of the patch gets a value.
+    middle 0.6·``radius``. Every pixel of the patch gets a value. Returns
+    ``(alpha, seen)``: ``seen`` is that median of the middle (as
+    :func:`.refine.local_coverage` gives it), for following slow colour drift.
     """
     basis = LUMA_BASIS if luminance else CHROMA_BASIS.astype(np.float64)
     P = np.asarray(patch_rgb, np.float64) @ basis.T
@@ -56,12 +58,13 @@ def rim_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, 
     rho = np.hypot(xx + x0 - centre[0], yy + y0 - centre[1])
     ring = (rho >= radius + 3) & (rho <= radius + 5)
     middle = rho <= 0.6 * radius
+    seen = np.median(P[middle], axis=0) if middle.sum() >= 3 else P[h // 2, w // 2]
     if ring.sum() < 8 or middle.sum() < 3:
-        return np.full((h, w), np.nan)
+        return np.full((h, w), np.nan), seen
     b = np.median(P[ring], axis=0)
-    m = np.asarray(marker, np.float64) if marker is not None else np.median(P[middle], axis=0)
+    m = np.asarray(marker, np.float64) if marker is not None else seen
     d = m - b
-    return (P - b) @ d / max(float(d @ d), 1e-6)
+    return (P - b) @ d / max(float(d @ d), 1e-6), seen
 
 
 def rim_points(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float],
@@ -227,10 +230,9 @@ def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float]
     middle = ((xx + x0 - p[0]) ** 2 + (yy + y0 - p[1]) ** 2 <= (0.5 * p[2]) ** 2) \
         & np.isfinite(alpha)
     gain = float(np.median(alpha[middle])) if middle.any() else float("nan")
-    area = float(np.nansum(alpha))
     return Centre(float(p[0]), float(p[1]), float(math.sqrt(var)), float(p[2]), True,
                   float("nan"), gain, (float(p[0]), float(p[1]), float(p[2]), 0.5, 1.0, 0.0),
-                  area, rim=True)
+                  rim=True)
 
 
 #: Spread of the coverage over a marker's middle, (p90 − p10) / p90, above which it

@@ -179,6 +179,10 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     edge).
     Returns the centre and the chroma seen in its middle.
     """
+    if rim is True and init is not None:
+        # Following a ball: its rim has a coverage of its own, so the disc fit's is
+        # not made at all.
+        return _rim(image, guess, radius, marker, luminance)
     patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
     alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance)
     c = None
@@ -189,7 +193,7 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
         guess = (c.x, c.y)
         alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance)
     if rim is True:
-        return _rim(image, guess, radius, marker, luminance), seen
+        return _rim(image, guess, radius, marker, luminance)
     if edges is None:
         # On 4:2:0 H.264 a moving marker's luminance edge is off by 2–3× what the
         # fit's residual says (bench/luminance.py): only full-chroma frames use it.
@@ -219,7 +223,7 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
         return fit, seen
     if rim is None:
         # Perhaps not a flat disc (a shaded ball, a bead on its string): its rim.
-        outline = _rim(image, guess, radius, marker, luminance)
+        outline, _ = _rim(image, guess, radius, marker, luminance)
         if outline.ok:
             return outline, seen
     if c is None:
@@ -228,19 +232,22 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
 
 
 def _rim(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius: float,
-         marker: NDArray | None, luminance: bool) -> Centre:
+         marker: NDArray | None, luminance: bool) -> tuple[Centre, NDArray]:
     """The circle through the rim (:func:`.outline.fit_outline`) on the coverage
     against one background (:func:`.outline.rim_coverage`), taken again around the
-    fitted centre while it moves by more than half a pixel."""
+    fitted centre while it moves by more than half a pixel; and the colour seen in
+    the middle around ``guess``."""
     fit = Centre(np.nan, np.nan, np.nan, radius, False)
+    seen = None
     for _ in range(4):
         patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
-        alpha = rim_coverage(patch, x0, y0, guess, radius, marker, luminance)
+        alpha, seen_here = rim_coverage(patch, x0, y0, guess, radius, marker, luminance)
+        seen = seen_here if seen is None else seen
         fit = fit_outline(alpha, x0, y0, guess, radius)
         if not fit.ok or np.hypot(fit.x - guess[0], fit.y - guess[1]) <= 0.5:
             break
         guess = (fit.x, fit.y)
-    return fit
+    return fit, seen
 
 
 def _honest(c: Centre) -> bool:
