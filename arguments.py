@@ -64,6 +64,18 @@ def _time_or_frame(text: str) -> tuple[float, str]:
     return value, unit
 
 
+def _roi(text: str) -> tuple[int, int, int, int]:
+    """``--roi X,Y,W,H``: a rectangle of the frame, px (top-left corner, width, height)."""
+    try:
+        x, y, w, h = (int(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not X,Y,W,H in whole pixels, e.g. "
+                                         "100,50,640,360") from None
+    if x < 0 or y < 0 or w <= 0 or h <= 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: X and Y must be ≥ 0, W and H > 0")
+    return x, y, w, h
+
+
 def _add_render_options(p: argparse.ArgumentParser, seconds: float = 2.5,
                         noise: float = 2.5) -> None:
     p.add_argument("--size", type=_size, default=(1280, 720), help="WIDTHxHEIGHT (1280x720)")
@@ -190,6 +202,9 @@ def _track_command(sub: argparse._SubParsersAction) -> None:
                    help="track from this time (s) or frame number (40f) on")
     p.add_argument("--end", type=_time_or_frame, metavar="S|Nf",
                    help="track up to this time (s) or frame number (40f)")
+    p.add_argument("--roi", type=_roi, metavar="X,Y,W,H",
+                   help="look for markers only in this rectangle of the frame (px: top-left "
+                        "corner, width, height); positions stay in the whole frame's pixels")
     p.add_argument("--marker", action="append", metavar="NAME=COLOUR[@X,Y]",
                    help="a marker and its colour: red, green, blue, yellow, …, a hue in "
                         "degrees, #RRGGBB, or white/black (found by contrast); @X,Y says "

@@ -21,6 +21,7 @@ import numpy as np
 
 from .arguments import build_parser
 from .errors import CranktrackError, RunInterrupted
+from .report.console import comparison_text, drive_errors_text, fit_text, format_table
 
 
 def parse_numbers(items: Iterable[str] | None, names: Iterable[str], flag: str, what: str,
@@ -185,7 +186,7 @@ def cmd_thermal_id(args: argparse.Namespace) -> int:
                      str(e.n), e.unit])
     print(f"ambient {result.T_amb_C:.2f} °C; wire d {args.diameter_um:g} µm, "
           f"L {args.length_mm:g} mm, A_s {args.As:g} °C, A_f {args.Af:g} °C")
-    print(_format_table(rows))
+    print(format_table(rows))
     print("n: steady stretches for R and h, step tests for c_p and Δh (1σ is their spread, – "
           "for a single test; Δh needs a step that completes the contraction, past A_f). "
           "c_p and Δh are timed by the displacement (contraction start/end, thesis Fig. "
@@ -236,6 +237,7 @@ def _track(args: argparse.Namespace, video: Path, out: Path):
             bar.refresh()
 
         return track_run(video, out, known, specs, span=span,
+                         roi=_roi(getattr(args, "roi", None)),
                          fps=getattr(args, "fps_images", None),
                          window_s=args.window_s,
                          fill_gaps_frames=getattr(args, "fill_gaps", 0), calibration=plane,
@@ -264,6 +266,12 @@ def _record(run: Path, spawn: bool, path: Path | None = None) -> Path:
             raise CranktrackError(f"could not start the Rerun viewer here ({e}); drop --spawn "
                                   "and open the .rrd file on a machine with a display") from None
         raise
+
+
+def _roi(xywh: tuple[int, int, int, int] | None):
+    from .tracker.track import Roi
+
+    return None if xywh is None else Roi(*xywh)
 
 
 def _span(start: tuple[float, str] | None, end: tuple[float, str] | None):
@@ -309,7 +317,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
                  for _, r in table.iterrows()]
         print(f"frame {frame.index} (t = {frame.t_s:.3f} s): {len(table)} candidate markers, "
               "most marker-like first")
-        print(_format_table(rows))
+        print(format_table(rows))
         picks = " ".join(f"--marker {m}" for m in table["marker"].head(3))
         # Quoted, so that a path with spaces (Tracker's examples have them) pastes.
         print("\nrename the ones you want and track them, e.g.:\n  cranktrack track "
@@ -337,14 +345,6 @@ def cmd_track(args: argparse.Namespace) -> int:
     return 0
 
 
-def _format_table(rows: list[list[str]]) -> str:
-    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
-    lines = ["  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in
-                       enumerate(zip(r, widths, strict=True))) for r in rows]
-    lines.insert(1, "  ".join("-" * w for w in widths))
-    return "\n".join(lines)
-
-
 def cmd_demo(args: argparse.Namespace) -> int:
     from .loop.compare import errors_against_drive, spool_model
 
@@ -361,16 +361,12 @@ def cmd_demo(args: argparse.Namespace) -> int:
     _print_warnings(run.warnings)
     measured = run.kinematics
     errors = errors_against_drive(measured, d, margin_s=2.5 / args.fps)  # 2 frames each side
-    rows = [["quantity", "frames", "RMS error", "max error", "RMS % of peak"]]
-    for r in errors.itertuples():
-        rows.append([f"{r.quantity} ({r.rows})", str(r.frames), f"{r.rms:.4g} {r.unit}",
-                     f"{r.max_abs:.4g} {r.unit}", f"{r.rms_pct_of_peak:.2f}"])
     model = spool_model(d, measured["t_s"].to_numpy())
     rocking_meas = np.nanmax(measured["theta_deg"]) - np.nanmin(measured["theta_deg"])
     rocking_model = np.nanmax(model["theta_deg"]) - np.nanmin(model["theta_deg"])
     print()
     print("Measured vs analytic model (eqs. 2.1-2.5 with the spool drive):")
-    print(_format_table(rows))
+    print(drive_errors_text(errors))
     print(f"rocking angle: measured {rocking_meas:.3f} deg, model {rocking_model:.3f} deg")
     print("('away from start/stop' leaves out the two frames either side of the drive's "
           "start and stop, where ω steps)")
@@ -382,7 +378,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     print()
     print("Spool model fitted to the measured θ(t) (start time, stroke and L3_0_mm free): "
           + ", ".join(f"{k} = {v:.5g} ± {sd:.2g}" for k, (v, sd) in fitted.fit.fitted.items()))
-    _print_comparison(fitted)
+    print(comparison_text(fitted))
     from .pipeline import fit_run
 
     known = {"L1_mm": d.L1, "L2_mm": d.L2, "speed_mm_s": d.speed_mm_s, "start_s": d.start_s,
@@ -390,7 +386,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     print()
     print("Closing the loop on this run (rig values known: "
           + ", ".join(f"{k} {v:g}" for k, v in known.items()) + "):")
-    _print_fit(fit_run(run.folder, "spool", known)[0].to_dict())
+    print(fit_text(fit_run(run.folder, "spool", known)[0].to_dict()))
     ring = args.demo_ring_hz
     print()
     print(f"The same bed whose crank rings at {ring:g} Hz when the spool starts and stops "
@@ -399,21 +395,13 @@ def cmd_demo(args: argparse.Namespace) -> int:
     files2 = _render(args, out / "scene-ring")
     run2 = _track(args, files2.video, out / "run-ring")
     result = fit_run(run2.folder, "spool", known)[0]
-    _print_fit(result.to_dict())
+    print(fit_text(result.to_dict()))
     print()
     print(f"outputs: {out}")
     print(f"  scene: {files.video.name}, {files.truth.name}, {files.scene.name} in {files.folder}")
     print(f"  run:   {', '.join(p.name for p in [*run.files.values(), *plots])} in {run.folder}")
     print(f"  loop:  {run2.folder / 'fit' / 'report.md'} (and fit/ in each run)")
     return 0
-
-
-def _print_comparison(result) -> None:
-    rows = [["quantity", "RMS error", "max error", "RMS % of peak", "fit %"]]
-    for r in result.summary.itertuples():
-        rows.append([r.quantity, f"{r.rms:.4g} {r.unit}", f"{r.max_abs:.4g} {r.unit}",
-                     f"{r.rms_pct_of_peak:.2f}", f"{r.fit_pct:.2f}"])
-    print(_format_table(rows))
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
@@ -427,7 +415,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         print(f"note: {m}")
     print("fitted: " + ", ".join(f"{k} = {v:.5g} ± {sd:.2g}"
                                  for k, (v, sd) in result.fit.fitted.items()))
-    _print_comparison(result)
+    print(comparison_text(result))
     print(f"wrote {', '.join(f.name for f in files)} in {args.run}")
     return 0
 
@@ -444,49 +432,13 @@ def cmd_fit(args: argparse.Namespace) -> int:
             bar.update(1)
 
         result, files = fit_run(Path(args.run), args.model, known, on_fit=fitting)
-    _print_fit(fit_report(result))
+    print(fit_text(fit_report(result)))
     if args.rerun:
         spawn = args.rerun == "spawn"
         target = None if spawn or args.rerun == "RUN/run.rrd" else Path(args.rerun)
         files.append(_record(Path(args.run), spawn=spawn, path=target))
     print(f"wrote {', '.join(f.name for f in files)} in {args.run} (fit/ for the loop's files)")
     return 0
-
-
-def _print_fit(report: dict) -> None:
-    for m in report["messages"]:
-        print(f"note: {m}")
-    rows = [["", "θ RMSE (deg)", "max (deg)", "fit %", "residual white"]]
-    for label, key in (("before (base model)", "before"), ("after", "after")):
-        rows.append([label, f"{report[f'rmse_{key}_deg']:.4g}", f"{report[f'max_{key}_deg']:.4g}",
-                     f"{report[f'fit_percent_{key}']:.3f}", str(report[f"residual_white_{key}"])])
-    print(_format_table(rows))
-    accepted = [c for c in report["candidates"] if c["accepted"]]
-    fm = report.get("frame_motion") or {}
-    if not accepted:
-        print("effects accepted on θ: none (no candidate explains the residual beyond the "
-              "noise)")
-    if fm.get("accepted"):
-        print(f"effect accepted (A and C tracks): pivot_amp_mm: the frame shakes "
-              f"{fm['amp_mm']:.4g} ± {fm['amp_sigma_mm']:.2g} mm at {fm['hz']:.4g} ± "
-              f"{fm['hz_sigma']:.2g} Hz across A–C, {fm['amp_vector_mm']:.4g} mm as a whole "
-              f"(ΔBIC {fm['delta_bic']:.0f}); θ does not see it, v_B does")
-    final = report["parameters"]
-    for c in accepted:
-        values = ", ".join(f"{k} = {final[k]['value']:.4g} ± {final[k]['sigma']:.2g}"
-                           for k in c["parameters"])
-        print(f"effect accepted (round {c['round']}): {c['name']}: {values} "
-              f"(ΔBIC {c['delta_bic']:.0f} when added)")
-    for name, d in report.get("effect_docs", {}).items():
-        if d["also_looks_like"]:
-            print(f"  {name} is also what {d['also_looks_like']}")
-    for g in report["look_alike_groups"]:
-        print(f"look-alikes: {', '.join(g['effects'])} fit equally well; to tell them apart, "
-              f"{g['separated_by']}")
-    for n in report["not_separable"]:
-        print(f"not tried: {n['name']} needs --known {' or '.join(n['needs'])}")
-    if report["unexplained"]:
-        print(f"unexplained: {report['unexplained']}")
 
 
 def parse_board(text: str) -> tuple[int, int]:

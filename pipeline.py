@@ -48,18 +48,18 @@ from .run_folder import (
 )
 from .tracker.gaps import fill_gaps
 from .tracker.markers import DEFAULT_MARKERS, MarkerSpec
-from .tracker.track import Span, TrackerState, TrackingInterrupted, track, tracks_table
+from .tracker.track import Roi, Span, TrackerState, TrackingInterrupted, track, tracks_table
 from .tracker.video import FrameSource, open_frames
 
 if TYPE_CHECKING:
     from .loop.camera_view import CameraView
     from .loop.compare import Comparison
-    from .loop.search import LoopResult
+    from .loop.result import LoopResult
 
 RUN_SCHEMA = 1
 
 
-def _load_state(path: Path, video: str | os.PathLike) -> TrackerState:
+def _load_state(path: Path, video: str | os.PathLike, roi: Roi | None = None) -> TrackerState:
     if not path.exists():
         raise CranktrackError(f"there is no interrupted run to resume in {path.parent} (no "
                               f"{path.name}); run without --resume")
@@ -71,6 +71,12 @@ def _load_state(path: Path, video: str | os.PathLike) -> TrackerState:
     if saved.get("video") != str(Path(video).resolve()):
         raise CranktrackError(f"the run in {path.parent} was tracking {saved.get('video')}, "
                               f"not {video}; resume it with that video")
+    if saved.get("roi") != roi:
+        was = saved.get("roi")
+        raise CranktrackError(f"the run in {path.parent} was tracking "
+                              + (f"--roi {was.x},{was.y},{was.w},{was.h}" if was else
+                                 "the whole frame")
+                              + "; resume it with the same region")
     return state
 
 
@@ -133,8 +139,10 @@ def track_run(
     on_start: Callable[[int | None], None] | None = None,
     on_frame: Callable[[int], None] | None = None,
     span: Span | None = None,
+    roi: Roi | None = None,
 ) -> RunResult:
-    """Track ``video`` into ``out_dir`` (only the frames within ``span``, if given).
+    """Track ``video`` into ``out_dir`` (only the frames within ``span``, and only the
+    part of each frame within ``roi``, if given).
 
     Writes ``tracks.csv`` (pixels, plus plane mm when ``known_length`` is
     given), ``calibration.json`` and ``kinematics.csv`` (only with a scale),
@@ -159,7 +167,7 @@ def track_run(
         try:
             result = _track_into(folder, source, video, known_length, specs, window_s,
                                  fill_gaps_frames, calibration, resume, on_start, on_frame,
-                                 span)
+                                 span, roi)
         except KeyboardInterrupt as e:
             # The tracker's state stays until the whole run is written, so a run stopped
             # in any step after its first frame resumes; before it, there is nothing to.
@@ -171,22 +179,51 @@ def track_run(
         return result
 
 
+def _found_warnings(found_fraction: dict[str, float]) -> list[str]:
+    """What to tell the user of markers found in few or no frames."""
+    out = []
+    for name, frac in found_fraction.items():
+        if frac == 0:
+            out.append(f"marker {name} was not found in any frame; check its colour")
+        elif frac < 0.95:
+            out.append(f"marker {name} was found in only {100 * frac:.0f}% of frames")
+    return out
+
+
+def _link_warnings(links: dict[str, dict]) -> list[str]:
+    """What to tell the user of rigid links that jump or wander (``MeasureInfo.links``)."""
+    out = []
+    for k, v in links.items():
+        if v["frames_flagged"]:
+            out.append(f"{v['frames_flagged']} frame(s) where the rigid length {k[:2]} jumps "
+                       f"by more than {LINK_JUMP_SIGMA:g}σ from its median (rigid_ok is false "
+                       "there)")
+    for k, link in links.items():
+        if link["std_over_sigma"] > LINK_WANDER:
+            out.append(
+                f"the rigid length {k[:2]} varies by {link['std']:.3f} mm (1σ) over the "
+                f"run, {link['std_over_sigma']:.1f}× what the markers' σ allow; the "
+                "camera may be tilted or the lens distorting (calibrate them: "
+                "cranktrack calibrate)")
+    return out
+
+
 def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
                 known_length: tuple[str, str, float] | None, specs: tuple[MarkerSpec, ...],
                 window_s: float | None, fill_gaps_frames: int,
                 calibration: PlaneCalibration | None, resume: bool,
                 on_start: Callable[[int | None], None] | None,
-                on_frame: Callable[[int], None] | None, span: Span | None = None
-                ) -> RunResult:
+                on_frame: Callable[[int], None] | None, span: Span | None = None,
+                roi: Roi | None = None) -> RunResult:
     """:func:`track_run`'s work, in a folder it holds."""
     if on_start:
         on_start(source.expected_frames)
     state_path = folder / TRACKER_STATE
-    saved = _load_state(state_path, video) if resume else None
+    saved = _load_state(state_path, video, roi) if resume else None
 
     def save_state(state: TrackerState) -> None:
         write_text_atomic(state_path, pickle.dumps({"video": str(Path(video).resolve()),
-                                                    "state": state}))
+                                                    "roi": roi, "state": state}))
 
     def checkpoint(state: TrackerState) -> None:
         write_csv_atomic(folder / TRACKS, tracks_table(state.rows, specs))
@@ -194,7 +231,7 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
 
     try:
         result = track(source, specs, on_frame=on_frame, resume=saved, checkpoint=checkpoint,
-                       span=span)
+                       span=span, roi=roi)
     except TrackingInterrupted as e:
         if e.state.rows:
             checkpoint(e.state)
@@ -204,12 +241,7 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
     names = tuple(s.name for s in specs)
     if fill_gaps_frames > 0:
         tracks = fill_gaps(tracks, names, fill_gaps_frames)
-    warnings = list(result.problems)
-    for name, frac in result.found_fraction.items():
-        if frac == 0:
-            warnings.append(f"marker {name} was not found in any frame; check its colour")
-        elif frac < 0.95:
-            warnings.append(f"marker {name} was found in only {100 * frac:.0f}% of frames")
+    warnings = list(result.problems) + _found_warnings(result.found_fraction)
     files = {"tracks": write_csv_atomic(folder / TRACKS, tracks)}
     run_info = {
         "schema": RUN_SCHEMA,
@@ -223,7 +255,8 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
         "tracking": {**result.to_dict(), "fill_gaps_frames": fill_gaps_frames,
                      "span": None if span is None or not span.given else
                      {"start": span.start, "end": span.end if np.isfinite(span.end) else None,
-                      "unit": span.unit}},
+                      "unit": span.unit},
+                     **({} if roi is None else {"roi": [roi.x, roi.y, roi.w, roi.h]})},
         "warnings": warnings,
     }
     files["run"] = write_json_atomic(folder / RUN_INFO, run_info)
@@ -251,19 +284,7 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
         if {"A", "B", "C"} <= set(names):
             kinematics, info = measure_kinematics(tracks, window_s=window_s,
                                                   scale_sigma=cal.scale_sigma)
-            flagged = {k: v["frames_flagged"] for k, v in info.links.items()
-                       if v["frames_flagged"]}
-            for k, n in flagged.items():
-                warnings.append(f"{n} frame(s) where the rigid length {k[:2]} jumps by more "
-                                f"than {LINK_JUMP_SIGMA:g}σ from its median (rigid_ok is false "
-                                "there)")
-            for k, link in info.links.items():
-                if link["std_over_sigma"] > LINK_WANDER:
-                    warnings.append(
-                        f"the rigid length {k[:2]} varies by {link['std']:.3f} mm (1σ) over the "
-                        f"run, {link['std_over_sigma']:.1f}× what the markers' σ allow; the "
-                        "camera may be tilted or the lens distorting (calibrate them: "
-                        "cranktrack calibrate)")
+            warnings += _link_warnings(info.links)
             files["kinematics"] = write_csv_atomic(folder / KINEMATICS, kinematics)
         else:
             raise CranktrackError("kinematics need markers A, B and C; the run tracked only "

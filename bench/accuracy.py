@@ -37,9 +37,12 @@ from common import scene
 
 from cranktrack.synthetic.bounds import marker_crb_px
 from cranktrack.synthetic.scene import RenderSettings, SceneFiles
+from cranktrack.tracker.centre import weighted_centroid
+from cranktrack.tracker.coverage import chroma, local_coverage
+from cranktrack.tracker.disc import fit_disc
 from cranktrack.tracker.markers import DEFAULT_MARKERS, choose_blob, find_blobs
-from cranktrack.tracker.refine import chroma, fit_disc, local_coverage, weighted_centroid
-from cranktrack.tracker.track import patch_around, refine, track
+from cranktrack.tracker.refine import patch_around, refine
+from cranktrack.tracker.track import track
 from cranktrack.tracker.video import open_frames
 
 BASE = {"size": (1280, 720), "fps": 30.0, "seconds": 4.0, "seed": 3}

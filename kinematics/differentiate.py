@@ -71,6 +71,57 @@ def _fits(t: NDArray, y: NDArray, a: int, n: int, start: NDArray, window: int, o
     return C, rss, self_w, rows
 
 
+def _nonoscillatory(t: NDArray, yv: NDArray, a: int, centred: NDArray, rss: NDArray,
+                    window: int, order: int, scale: float) -> tuple[NDArray, NDArray]:
+    """Window selection near kinks, for the segment of ``n = len(centred)`` samples
+    from ``a``: the start of each sample's best-fitting window (where the centred one
+    misfits), and the spread (2, n) of the first two rates over the windows that fit
+    about as well (see the module doc)."""
+    n = len(centred)
+    idx = np.arange(n)
+    half = window // 2
+    dof = window - order - 1
+    spread = np.zeros((2, n))
+    from scipy.stats import chi2  # 0.6 s to import: not before the first frame
+
+    # Noise level from the typical centred residual (robust to the few kinks).
+    noise_var = float(np.median(rss)) / dof / (chi2.ppf(0.5, dof) / dof)
+    limit = noise_var * chi2.ppf(0.999, dof)
+    best_rss, choice = rss.copy(), centred.copy()
+    bad = rss > limit
+    # Rates of every window containing the point: where more than one
+    # fits about as well as the best (Δχ² ≤ 9) and they disagree (a kink
+    # a fraction of a frame away), which is right is not knowable, and
+    # their spread belongs in σ.
+    all_rss, all_rates = [], []
+    for shift in range(-half, half + 1):
+        if not bad.any():
+            break
+        start = np.clip(idx - half + shift, 0, n - window)
+        start = np.clip(start, idx - window + 1, idx)  # the window must contain i
+        C2, r2, _, rows2 = _fits(t, yv, a, n, start, window, order, scale)
+        better = bad & (r2 < best_rss)
+        best_rss[better], choice[better] = r2[better], start[better]
+        all_rss.append(r2)
+        all_rates.append([np.einsum("nw,nw->n", C2[:, k, :], yv[rows2])
+                          for k in range(1, order + 1)])
+    if all_rss:
+        R = np.array(all_rss)  # (shifts, n)
+        rates = np.array(all_rates)  # (shifts, order, n)
+        # Where even the best window misfits (a moving marker's codec error
+        # can exceed the run's typical noise, which still frames set), windows
+        # are told apart only to within the best one's own misfit.
+        local = np.maximum(noise_var, best_rss / dof)
+        fine = bad & ((R <= limit) | (R - best_rss <= 9.0 * local))
+        for k in range(min(order, 2)):
+            vals = np.where(fine, rates[:, k, :], np.nan)
+            with np.errstate(invalid="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                width = np.nanmax(vals, axis=0) - np.nanmin(vals, axis=0)
+            spread[k] = np.where(np.isfinite(width), 0.5 * width, 0.0)
+    return choice, spread
+
+
 def local_polynomial(
     t_s: ArrayLike,
     y: ArrayLike,
@@ -118,7 +169,6 @@ def local_polynomial(
     out = {k: np.full(yv.shape, np.nan) for k in keys}
     shifted = np.zeros(yv.shape, bool)
     half = window // 2
-    dof = window - order - 1
     for a, b in segments(np.isfinite(yv) & np.isfinite(t)):
         n = b - a
         if n < window:
@@ -129,43 +179,7 @@ def local_polynomial(
         centred = np.clip(idx - half, 0, n - window)
         C, rss, self_w, rows = _fits(t, yv, a, n, centred, window, order, scale)
         if adaptive and n > window:
-            from scipy.stats import chi2  # 0.6 s to import: not before the first frame
-
-            # Noise level from the typical centred residual (robust to the few kinks).
-            noise_var = float(np.median(rss)) / dof / (chi2.ppf(0.5, dof) / dof)
-            limit = noise_var * chi2.ppf(0.999, dof)
-            best_rss, choice = rss.copy(), centred.copy()
-            bad = rss > limit
-            # Rates of every window containing the point: where more than one
-            # fits about as well as the best (Δχ² ≤ 9) and they disagree (a kink
-            # a fraction of a frame away), which is right is not knowable, and
-            # their spread belongs in σ.
-            all_rss, all_rates = [], []
-            for shift in range(-half, half + 1):
-                if not bad.any():
-                    break
-                start = np.clip(idx - half + shift, 0, n - window)
-                start = np.clip(start, idx - window + 1, idx)  # the window must contain i
-                C2, r2, _, rows2 = _fits(t, yv, a, n, start, window, order, scale)
-                better = bad & (r2 < best_rss)
-                best_rss[better], choice[better] = r2[better], start[better]
-                all_rss.append(r2)
-                all_rates.append([np.einsum("nw,nw->n", C2[:, k, :], yv[rows2])
-                                  for k in range(1, order + 1)])
-            if all_rss:
-                R = np.array(all_rss)  # (shifts, n)
-                rates = np.array(all_rates)  # (shifts, order, n)
-                # Where even the best window misfits (a moving marker's codec error
-                # can exceed the run's typical noise, which still frames set), windows
-                # are told apart only to within the best one's own misfit.
-                local = np.maximum(noise_var, best_rss / dof)
-                fine = bad & ((R <= limit) | (R - best_rss <= 9.0 * local))
-                for k in range(min(order, 2)):
-                    vals = np.where(fine, rates[:, k, :], np.nan)
-                    with np.errstate(invalid="ignore"), warnings.catch_warnings():
-                        warnings.simplefilter("ignore", RuntimeWarning)
-                        width = np.nanmax(vals, axis=0) - np.nanmin(vals, axis=0)
-                    spread[k] = np.where(np.isfinite(width), 0.5 * width, 0.0)
+            choice, spread = _nonoscillatory(t, yv, a, centred, rss, window, order, scale)
             moved = choice != centred
             if moved.any():
                 C2, _, sw2, rows2 = _fits(t, yv, a, n, choice, window, order, scale)

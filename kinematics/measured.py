@@ -216,6 +216,34 @@ class MeasureInfo:
                 "links": self.links}
 
 
+def _travel_sigma(dBx: Derivatives, dBy: Derivatives) -> tuple[np.ndarray, np.ndarray]:
+    """1-σ of B's velocity along its direction of travel (mm/s) and across it
+    (rad, as a fraction of the speed); along is the whole σ where B stands still."""
+    vx, vy = dBx.d1, dBy.d1
+    speed = np.hypot(vx, vy)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        along = np.sqrt((vx * dBx.d1_sigma) ** 2 + (vy * dBy.d1_sigma) ** 2) / speed
+        across = np.sqrt((vy * dBx.d1_sigma) ** 2 + (vx * dBy.d1_sigma) ** 2) / speed
+    still = ~(speed > 0)
+    along[still] = np.hypot(dBx.d1_sigma, dBy.d1_sigma)[still]
+    return along, across
+
+
+def _link_summary(link: _Link) -> dict[str, float | int]:
+    """How rigid one link measured: its median, spread and range (mm), and the
+    frames flagged as jumps."""
+    return {"median": float(np.nanmedian(link.length)),
+            "std": float(np.nanstd(link.length)),
+            "range": float(np.nanmax(link.length) - np.nanmin(link.length)),
+            "frames_flagged": int(np.sum(link.jump & np.isfinite(link.length))),
+            # The spread against what the points' σ allow: about 1 for a rigid
+            # link tracked as the σ say (0.7–1.1 on the H.264 renders); a camera
+            # not square to the plane or a lens that distorts bends it as the
+            # mechanism moves.
+            "std_over_sigma": float(np.nanstd(link.length)
+                                    / np.sqrt(np.nanmean(link.sigma**2)))}
+
+
 def measure_kinematics(
     tracks: pd.DataFrame, window_s: float | None = None, order: int = 2,
     scale_sigma: float = 0.0,
@@ -276,12 +304,7 @@ def measure_kinematics(
     dL3 = diff(L3, np.hypot(sB, sC))
     vx, vy = dBx.d1, dBy.d1
     speed = np.hypot(vx, vy)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        # Components of the velocity error along and across the direction of travel.
-        along = np.sqrt((vx * dBx.d1_sigma) ** 2 + (vy * dBy.d1_sigma) ** 2) / speed
-        across = np.sqrt((vy * dBx.d1_sigma) ** 2 + (vx * dBy.d1_sigma) ** 2) / speed
-    still = ~(speed > 0)
-    along[still] = np.hypot(dBx.d1_sigma, dBy.d1_sigma)[still]
+    along, across = _travel_sigma(dBx, dBy)
     # Positions report the error the rigid links show too; the rates keep the
     # per-point σ, which their own calibration (``scale``) already corrects.
     rigid = _rigid_links(tracks)
@@ -309,22 +332,12 @@ def measure_kinematics(
     # A direction of travel is only measured while B measurably moves.
     still_B = ~(speed > 2.0 * sigma["vB_mm_s"])
     table.loc[still_B, ["vB_dir_deg", "vB_dir_deg_sigma"]] = np.nan
-    links = {}
     rigid_ok = np.isfinite(theta)
     for name, link in rigid.items():
         table[name] = link.length
         rigid_ok &= ~link.jump
-        links[name] = {"median": float(np.nanmedian(link.length)),
-                       "std": float(np.nanstd(link.length)),
-                       "range": float(np.nanmax(link.length) - np.nanmin(link.length)),
-                       "frames_flagged": int(np.sum(link.jump & np.isfinite(link.length))),
-                       # The spread against what the points' σ allow: about 1 for
-                       # a rigid link tracked as the σ say (0.7–1.1 on the H.264
-                       # renders); a camera not square to the plane or a lens
-                       # that distorts bends it as the mechanism moves.
-                       "std_over_sigma": float(np.nanstd(link.length)
-                                               / np.sqrt(np.nanmean(link.sigma**2)))}
     table["rigid_ok"] = rigid_ok
+    links = {name: _link_summary(link) for name, link in rigid.items()}
     # The noise level a model's residual is judged against (``cranktrack fit``): the
     # links' excess is left out, because a camera effect the loop looks for (a tilt)
     # bends the links too and would otherwise hide in the noise.

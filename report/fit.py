@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 from ..files import ensure_dir, write_csv_atomic, write_json_atomic, write_text_atomic
 from ..loop.candidates import CAMERA_CANDIDATES
 from ..loop.evidence import BIC_THRESHOLD, IMPRINT_SIGMAS
-from ..loop.search import LoopResult
+from ..loop.result import LoopResult
 from ..loop.simulate import MODELS
 from ..run_folder import FIT_FIGURE, FIT_REPORT, FIT_REPORT_JSON, FIT_TABLE
 
@@ -109,6 +109,47 @@ def plain_summary(report: dict) -> str:
             + (f" On the rig: {'; '.join(checks)}." if checks else ""))
 
 
+def _links_section(report: dict) -> list[str]:
+    """Markdown lines on how rigid the links measured (none without L2)."""
+    lines: list[str] = []
+    links = report.get("links", {})
+    if "L2_mm" in links:
+        lines += ["", "## Rigid links (a camera effect bends them, a mechanism effect does not)",
+                  "", "| link | median (mm) | σ (mm) | r with θ |", "|---|---|---|---|"]
+        for name in ("L1_mm", "L2_mm"):
+            if name in links:
+                v = links[name]
+                lines.append(f"| {name} | {v['median_mm']:.3f} | {v['std_mm']:.4f} | "
+                             f"{v['r_with_theta']:+.2f} |")
+        lines.append("")
+        lines.append(f"Camera effect suspected: {report['camera_effect_suspected']} (the "
+                     f"tracker's σ allows {links['crank_std_expected_mm']:.4f} mm on |AB|).")
+    return lines
+
+
+def _frame_motion_section(report: dict) -> list[str]:
+    """Markdown lines on whether the frame shook (none when it was not looked at)."""
+    lines: list[str] = []
+    fm = report.get("frame_motion")
+    if fm:
+        lines += ["", "## Is the frame still? (A and C across the A–C line; θ cannot show this)",
+                  ""]
+        if fm["accepted"]:
+            lines.append(f"The frame shakes: {fm['amp_mm']:.4g} ± {fm['amp_sigma_mm']:.2g} mm "
+                         f"across the A–C line ({fm['amp_along_mm']:.4g} mm along it, "
+                         f"{fm['amp_vector_mm']:.4g} mm as a whole) "
+                         f"at {fm['hz']:.4g} ± {fm['hz_sigma']:.2g} Hz (ΔBIC "
+                         f"{fm['delta_bic']:.1f}); A and C move {fm['rmse_before_mm']:.4g} mm "
+                         f"RMS across the line, {fm['rmse_after_mm']:.4g} mm once the shake is "
+                         "taken out. θ and ω do not see it; the velocity of B carries the "
+                         "frame's own velocity. Fix the bench or the pivot's mount.")
+        else:
+            lines.append(f"Still, as far as the tracks tell: {fm['reason'] or 'no shake'} "
+                         f"(A and C move {fm['rmse_before_mm']:.4g} mm RMS across the line; "
+                         f"the tracker's σ there is {fm['tracker_sigma_mm']:.4g} mm).")
+    return lines
+
+
 def report_markdown(report: dict) -> str:
     """The report as Markdown: a plain paragraph, then before/after, accepted effects and
     every candidate."""
@@ -179,35 +220,7 @@ def report_markdown(report: dict) -> str:
         b, a = before["phases"].get(name), after["phases"].get(name)
         if b and a:
             lines.append(f"| RMSE {label} (deg) | {b['rmse_deg']:.4g} | {a['rmse_deg']:.4g} |")
-    links = report.get("links", {})
-    if "L2_mm" in links:
-        lines += ["", "## Rigid links (a camera effect bends them, a mechanism effect does not)",
-                  "", "| link | median (mm) | σ (mm) | r with θ |", "|---|---|---|---|"]
-        for name in ("L1_mm", "L2_mm"):
-            if name in links:
-                v = links[name]
-                lines.append(f"| {name} | {v['median_mm']:.3f} | {v['std_mm']:.4f} | "
-                             f"{v['r_with_theta']:+.2f} |")
-        lines.append("")
-        lines.append(f"Camera effect suspected: {report['camera_effect_suspected']} (the "
-                     f"tracker's σ allows {links['crank_std_expected_mm']:.4f} mm on |AB|).")
-    fm = report.get("frame_motion")
-    if fm:
-        lines += ["", "## Is the frame still? (A and C across the A–C line; θ cannot show this)",
-                  ""]
-        if fm["accepted"]:
-            lines.append(f"The frame shakes: {fm['amp_mm']:.4g} ± {fm['amp_sigma_mm']:.2g} mm "
-                         f"across the A–C line ({fm['amp_along_mm']:.4g} mm along it, "
-                         f"{fm['amp_vector_mm']:.4g} mm as a whole) "
-                         f"at {fm['hz']:.4g} ± {fm['hz_sigma']:.2g} Hz (ΔBIC "
-                         f"{fm['delta_bic']:.1f}); A and C move {fm['rmse_before_mm']:.4g} mm "
-                         f"RMS across the line, {fm['rmse_after_mm']:.4g} mm once the shake is "
-                         "taken out. θ and ω do not see it; the velocity of B carries the "
-                         "frame's own velocity. Fix the bench or the pivot's mount.")
-        else:
-            lines.append(f"Still, as far as the tracks tell: {fm['reason'] or 'no shake'} "
-                         f"(A and C move {fm['rmse_before_mm']:.4g} mm RMS across the line; "
-                         f"the tracker's σ there is {fm['tracker_sigma_mm']:.4g} mm).")
+    lines += _links_section(report) + _frame_motion_section(report)
     if report["unexplained"]:
         lines += ["", f"**Unexplained:** {report['unexplained']}."]
     for m in report["messages"]:

@@ -234,3 +234,49 @@ def test_a_ball_on_a_turning_stalk_is_followed_and_never_jumps_to_its_twin():
             errors.append(np.hypot(row["x_px"] - x, row["y_px"] - y))
     assert statuses.count("ok") >= 11, statuses
     assert max(errors) < 0.2, errors
+
+
+def test_roi_keeps_the_search_inside_it_and_positions_in_the_frame(tmp_path, capsys):
+    import cv2
+
+    from cranktrack.cli import main
+
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    truth = [(30.3 + 7 * i, 60.6 + 2 * i) for i in range(8)]
+    for i, (x, y) in enumerate(truth):
+        # A twin of the ball, still, in the right half: the same colour and size.
+        image = draw([(x, y, 6.0, WHITE), (190.0, 120.0, 6.0, WHITE)], seed=i)
+        cv2.imwrite(str(frames / f"f{i:03d}.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+    # Without a region the two are rivals, and the user is told.
+    assert main(["track", str(frames), "--fps", "10", "--marker", "ball=white", "--out",
+                 str(tmp_path / "whole")]) == 0
+    assert "2 blobs of its colour and size" in capsys.readouterr().err
+    # Odd corner and size: the cut is snapped to whole colour cells inside it.
+    assert main(["track", str(frames), "--fps", "10", "--marker", "ball=white", "--roi",
+                 "3,5,121,150", "--out", str(tmp_path / "roi")]) == 0
+    assert "blobs of its colour" not in capsys.readouterr().err
+    tracks = pd.read_csv(tmp_path / "roi" / "tracks.csv")
+    assert tracks["ball_ok"].all()
+    err = np.hypot(tracks["ball_x_px"] - [x for x, _ in truth],
+                   tracks["ball_y_px"] - [y for _, y in truth])
+    assert err.max() < 0.1
+    assert main(["track", str(frames), "--fps", "10", "--roi", "300,300,50,50", "--out",
+                 str(tmp_path / "off")]) == 1
+    err_text = capsys.readouterr().err
+    assert "--roi 300,300,50,50 leaves no usable part of the 240x180 frame" in err_text
+    assert "Traceback" not in err_text
+
+
+def test_a_cut_of_a_420_frame_is_that_part_of_the_whole_frame():
+    from cranktrack.tracker.video import Frame
+
+    rng = np.random.default_rng(4)
+    w, h = 64, 48
+    planes = rng.integers(16, 240, size=(h * 3 // 2, w), dtype=np.uint8)
+    frame = Frame(3, 0.1, planes, "i420", False)
+    cut = frame.cropped(6, 10, 38, 34)
+    assert cut.size == (32, 24) and cut.layout == "i420"
+    assert np.array_equal(cut.rgb, frame.rgb[10:34, 6:38])
+    with pytest.raises(ValueError):
+        frame.cropped(5, 10, 37, 34)

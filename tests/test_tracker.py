@@ -14,8 +14,9 @@ from cranktrack.synthetic.bounds import marker_crb_px
 from cranktrack.synthetic.render import Style
 from cranktrack.synthetic.scenarios import SpoolScenario
 from cranktrack.synthetic.scene import RenderSettings, render_scene
+from cranktrack.tracker.coverage import chroma
+from cranktrack.tracker.disc import fit_disc, fit_disc_cells
 from cranktrack.tracker.markers import Blob, MarkerSpec, choose_blob
-from cranktrack.tracker.refine import chroma, fit_disc, fit_disc_cells
 from cranktrack.tracker.track import STATUSES, track
 from cranktrack.tracker.video import open_frames
 

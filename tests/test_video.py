@@ -56,7 +56,7 @@ def test_image_folder_in_natural_order(tmp_path):
 
 
 def test_frames_say_whether_their_chroma_is_full_resolution(tmp_path):
-    # What decides whether the tracker may read luminance edges (refine.fit_edges).
+    # What decides whether the tracker may read luminance edges (edges.fit_edges).
     img = np.full((48, 64, 3), 128, np.uint8)
     for lossless, full in ((True, True), (False, False)):  # RGB H.264 vs 4:2:0 H.264
         name = tmp_path / f"v{lossless}.mp4"

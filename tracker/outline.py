@@ -23,7 +23,8 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from .refine import CHROMA_BASIS, LUMA_BASIS, Centre
+from .centre import Centre
+from .coverage import CHROMA_BASIS, LUMA_BASIS
 
 #: Tukey biweight tuning constant (95 % efficiency for Gaussian residuals).
 TUKEY_C = 4.685
@@ -41,7 +42,7 @@ def rim_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, 
     """Coverage of a patch by the marker's colour against one background: the median
     colour on the ring ``radius`` + 3…5 px from ``centre`` (image px).
 
-    The disc fit's coverage (:func:`.refine.local_coverage`) takes a background
+    The disc fit's coverage (:func:`.coverage.local_coverage`) takes a background
     per ray, which follows uneven light but takes a stalk of the marker's own
     colour lying under the ring for the background and loses that quarter of
     the rim. The rim needs only where the colour ends, so one background, a
@@ -49,7 +50,7 @@ def rim_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, 
     colour (chroma; luminance for ``luminance``), else the median of the
     middle 0.6·``radius``. Every pixel of the patch gets a value. Returns
     ``(alpha, seen)``: ``seen`` is that median of the middle (as
-    :func:`.refine.local_coverage` gives it), for following slow colour drift.
+    :func:`.coverage.local_coverage` gives it), for following slow colour drift.
     """
     basis = LUMA_BASIS if luminance else CHROMA_BASIS.astype(np.float64)
     P = np.asarray(patch_rgb, np.float64) @ basis.T

@@ -85,6 +85,26 @@ class Frame:
             return self.rgb[y0:y1, x0:x1]
         return _i420_to_rgb(*self._planes(), x0, y0, x1, y1)
 
+    def cropped(self, x0: int, y0: int, x1: int, y1: int) -> Frame:
+        """The frame cut to columns x0…x1−1 and rows y0…y1−1, with its own layout.
+
+        A 4:2:0 frame stays 4:2:0 (no colour conversion), so the cut must keep
+        its chroma cells whole: x0, y0 and the width even, the height a
+        multiple of 4 (:meth:`.track.Roi.inside` makes them so).
+        """
+        if self.layout != "i420":
+            return Frame(self.index, self.t_s, np.ascontiguousarray(self.pixels[y0:y1, x0:x1]),
+                         self.layout, self.full_chroma)
+        if x0 % 2 or y0 % 2 or (x1 - x0) % 2 or (y1 - y0) % 4:
+            raise ValueError("a 4:2:0 frame is cut at even columns and rows, with a height "
+                             "that is a multiple of 4")
+        Y, U, V = self._planes()
+        u = U[y0 // 2:y1 // 2, x0 // 2:x1 // 2]
+        v = V[y0 // 2:y1 // 2, x0 // 2:x1 // 2]
+        planes = np.concatenate([Y[y0:y1, x0:x1].ravel(), u.ravel(), v.ravel()])
+        return Frame(self.index, self.t_s, planes.reshape(-1, x1 - x0), self.layout,
+                     self.full_chroma)
+
     def _planes(self) -> tuple[NDArray, NDArray, NDArray]:
         w, h = self.size
         q = h // 4

@@ -1,0 +1,78 @@
+"""What the commands print: plain-text tables of errors, comparisons and loop results.
+
+Each function returns the text; :mod:`..cli` prints it (library code prints nothing).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # pandas is not imported before the first frame (start-up time)
+    import pandas as pd
+
+
+def format_table(rows: list[list[str]]) -> str:
+    """Rows of cells as aligned columns, the first row a header underlined with dashes;
+    the first column left-aligned, the others right-aligned."""
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    lines = ["  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in
+                       enumerate(zip(r, widths, strict=True))) for r in rows]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
+def drive_errors_text(errors: pd.DataFrame) -> str:
+    """The table of :func:`..loop.compare.errors_against_drive`: RMS and largest error
+    of each quantity against the analytic model, in the quantity's unit."""
+    rows = [["quantity", "frames", "RMS error", "max error", "RMS % of peak"]]
+    for r in errors.itertuples():
+        rows.append([f"{r.quantity} ({r.rows})", str(r.frames), f"{r.rms:.4g} {r.unit}",
+                     f"{r.max_abs:.4g} {r.unit}", f"{r.rms_pct_of_peak:.2f}"])
+    return format_table(rows)
+
+
+def comparison_text(result) -> str:
+    """The summary table of a comparison (:func:`..loop.compare.compare`'s result)."""
+    rows = [["quantity", "RMS error", "max error", "RMS % of peak", "fit %"]]
+    for r in result.summary.itertuples():
+        rows.append([r.quantity, f"{r.rms:.4g} {r.unit}", f"{r.max_abs:.4g} {r.unit}",
+                     f"{r.rms_pct_of_peak:.2f}", f"{r.fit_pct:.2f}"])
+    return format_table(rows)
+
+
+def fit_text(report: dict) -> str:
+    """The closed loop's result (``fit/report.json``) in a few lines: before and after,
+    what was accepted, what looks alike, what was not tried and what is unexplained."""
+    lines = [f"note: {m}" for m in report["messages"]]
+    rows = [["", "θ RMSE (deg)", "max (deg)", "fit %", "residual white"]]
+    for label, key in (("before (base model)", "before"), ("after", "after")):
+        rows.append([label, f"{report[f'rmse_{key}_deg']:.4g}", f"{report[f'max_{key}_deg']:.4g}",
+                     f"{report[f'fit_percent_{key}']:.3f}", str(report[f"residual_white_{key}"])])
+    lines.append(format_table(rows))
+    accepted = [c for c in report["candidates"] if c["accepted"]]
+    fm = report.get("frame_motion") or {}
+    if not accepted:
+        lines.append("effects accepted on θ: none (no candidate explains the residual beyond "
+                     "the noise)")
+    if fm.get("accepted"):
+        lines.append(f"effect accepted (A and C tracks): pivot_amp_mm: the frame shakes "
+                     f"{fm['amp_mm']:.4g} ± {fm['amp_sigma_mm']:.2g} mm at {fm['hz']:.4g} ± "
+                     f"{fm['hz_sigma']:.2g} Hz across A–C, {fm['amp_vector_mm']:.4g} mm as a "
+                     f"whole (ΔBIC {fm['delta_bic']:.0f}); θ does not see it, v_B does")
+    final = report["parameters"]
+    for c in accepted:
+        values = ", ".join(f"{k} = {final[k]['value']:.4g} ± {final[k]['sigma']:.2g}"
+                           for k in c["parameters"])
+        lines.append(f"effect accepted (round {c['round']}): {c['name']}: {values} "
+                     f"(ΔBIC {c['delta_bic']:.0f} when added)")
+    for name, d in report.get("effect_docs", {}).items():
+        if d["also_looks_like"]:
+            lines.append(f"  {name} is also what {d['also_looks_like']}")
+    for g in report["look_alike_groups"]:
+        lines.append(f"look-alikes: {', '.join(g['effects'])} fit equally well; to tell them "
+                     f"apart, {g['separated_by']}")
+    for n in report["not_separable"]:
+        lines.append(f"not tried: {n['name']} needs --known {' or '.join(n['needs'])}")
+    if report["unexplained"]:
+        lines.append(f"unexplained: {report['unexplained']}")
+    return "\n".join(lines)

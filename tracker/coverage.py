@@ -1,0 +1,125 @@
+"""Coverage: how much of each pixel a marker covers, unmixed from its colour.
+
+Every centre fit works on a small patch around a coarse detection and on the
+*chroma* of the pixels: RGB minus its grey component, in a 2-D basis of the
+plane orthogonal to (1, 1, 1). Grey and near-neutral things (links, wire,
+board, shadows that only darken) have almost no chroma, so a pixel that is a
+mix ``α·marker + (1 − α)·grey`` has chroma ``α·marker_chroma`` whatever the
+grey is. Projecting each pixel's chroma, minus the background's (sampled on a
+ring just outside the marker, :func:`local_coverage`), on the marker's gives
+the coverage ``α`` of each pixel, linear in the data.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+#: Orthonormal basis of the chroma plane (rows), orthogonal to grey (1, 1, 1).
+CHROMA_BASIS = np.array(
+    [[1.0, -1.0, 0.0], [1.0, 1.0, -2.0]], dtype=np.float32
+) / np.array([[np.sqrt(2.0)], [np.sqrt(6.0)]], dtype=np.float32)
+
+
+#: The same basis in double precision, for the compiled coverage kernel.
+_BASIS64 = CHROMA_BASIS.astype(np.float64)
+#: A white or black marker has no chroma: it is unmixed on luminance alone (the
+#: second axis is zero, so the kernel's plane collapses to a line).
+LUMA_BASIS = np.array([[1.0, 1.0, 1.0], [0.0, 0.0, 0.0]]) / np.sqrt(3.0)
+
+
+def chroma(rgb: NDArray) -> NDArray[np.float32]:
+    """Chroma of RGB pixels, shape (..., 2), in DN."""
+    return np.asarray(rgb, dtype=np.float32) @ CHROMA_BASIS.T
+
+
+def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, float],
+                   radius: float, marker: NDArray | None = None, luminance: bool = False
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Coverage α by unmixing chroma against a per-pixel background.
+
+    Each pixel within ``radius + 2`` px of ``centre`` is unmixed as
+    ``q = α·m + (1 − α)·b`` in the chroma plane, where ``m`` is the marker's
+    chroma and ``b`` the background's along the same ray from the centre,
+    sampled just outside the disc (``radius`` + 3…5 px). Links and the wire
+    leave a marker radially, so the sample sees what lies under the marker's
+    edge; uneven light is followed too. Pixels farther out are NaN.
+
+    ``marker`` is the learned marker chroma; without it the median chroma of
+    the pixels within 0.6·radius is used (only right when the marker is
+    known to be there: at acquisition).
+
+    Returns ``(alpha, marker_chroma_seen)``: the second is the median chroma
+    of the middle of the patch, for following slow colour drift.
+    ``luminance`` unmixes brightness instead of chroma (a white or black marker).
+    """
+    known = marker is not None
+    m = np.asarray(marker if known else (0.0, 0.0), np.float64)
+    # The patch goes in as it is (a uint8 view of the frame): the kernel reads it
+    # pixel by pixel, so a float copy per marker per frame would be wasted.
+    alpha, seen = _coverage_compiled(np.asarray(patch_rgb),
+                                     LUMA_BASIS if luminance else _BASIS64,
+                                     float(centre[0] - x0), float(centre[1] - y0),
+                                     float(radius), m, known)
+    return alpha, seen
+
+
+@njit(cache=True, nogil=True)
+def _bilinear(P: NDArray, x: float, y: float, out: NDArray) -> None:
+    """Add P sampled at (x, y) (bilinear, edges replicated) to ``out`` (2,)."""
+    h, w = P.shape[0], P.shape[1]
+    x = min(max(x, 0.0), w - 1.0)
+    y = min(max(y, 0.0), h - 1.0)
+    i, j = min(int(y), h - 2), min(int(x), w - 2)
+    fy, fx = y - i, x - j
+    for c in range(2):
+        out[c] += ((1 - fy) * ((1 - fx) * P[i, j, c] + fx * P[i, j + 1, c])
+                   + fy * ((1 - fx) * P[i + 1, j, c] + fx * P[i + 1, j + 1, c]))
+
+
+@njit(cache=True, nogil=True)
+def _coverage_compiled(rgb: NDArray, basis: NDArray, cx: float, cy: float, radius: float,
+                       marker: NDArray, known: bool) -> tuple[NDArray, NDArray]:
+    """:func:`local_coverage` on an RGB patch (h, w, 3), centre in patch px."""
+    h, w = rgb.shape[0], rgb.shape[1]
+    P = np.empty((h, w, 2))
+    for i in range(h):
+        for j in range(w):
+            for c in range(2):
+                P[i, j, c] = (basis[c, 0] * rgb[i, j, 0] + basis[c, 1] * rgb[i, j, 1]
+                              + basis[c, 2] * rgb[i, j, 2])
+    inner_x, inner_y = np.empty(h * w), np.empty(h * w)
+    n_inner = 0
+    for i in range(h):
+        for j in range(w):
+            if math.hypot(j - cx, i - cy) + 1e-6 <= 0.6 * radius:
+                inner_x[n_inner] = P[i, j, 0]
+                inner_y[n_inner] = P[i, j, 1]
+                n_inner += 1
+    seen = np.empty(2)
+    if n_inner >= 3:
+        seen[0] = np.median(inner_x[:n_inner])
+        seen[1] = np.median(inner_y[:n_inner])
+    else:
+        seen[0], seen[1] = P[h // 2, w // 2, 0], P[h // 2, w // 2, 1]
+    m = marker if known else seen
+    alpha = np.full((h, w), np.nan)
+    b = np.empty(2)
+    for i in range(h):
+        for j in range(w):
+            dx, dy = j - cx, i - cy
+            rho = math.sqrt(dx * dx + dy * dy) + 1e-6
+            if rho > radius + 2.0:
+                continue
+            ux, uy = dx / rho, dy / rho
+            b[:] = 0.0
+            for k in (3.0, 4.0, 5.0):
+                _bilinear(P, cx + (radius + k) * ux, cy + (radius + k) * uy, b)
+            b /= 3.0
+            d0, d1 = m[0] - b[0], m[1] - b[1]
+            denom = max(d0 * d0 + d1 * d1, 1e-6)
+            alpha[i, j] = ((P[i, j, 0] - b[0]) * d0 + (P[i, j, 1] - b[1]) * d1) / denom
+    return alpha, seen

@@ -1,0 +1,85 @@
+"""Where to look for a marker that is not where it was predicted: the search ladder.
+
+First a window around the prediction (:func:`window`, widening while the
+marker stays lost), then the whole frame, but only on some frames
+(:func:`search_whole_frame`): a full-frame search costs as much as decoding
+the frame. Where the blob found is not the marker, the next ones of its colour
+and size within reach (:func:`other_blobs`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .marker_state import MarkerState
+from .markers import Blob, acquire, balanced_hsv, find_blobs, white_balance_gains
+from .video import Frame
+
+#: A marker that is not where it was looked for is sought in the whole frame only
+#: every this many frames (and in each of the first ones of a video): a full-frame
+#: search costs as much as decoding the frame, so a marker that has left the view,
+#: or was never there, would otherwise slow every frame down.
+FULL_SEARCH_EVERY = 8
+
+
+def window(state: MarkerState) -> float:
+    """Half-width (px) of the window searched around the prediction: three radii and
+    twice the last step, doubled for each of the first two frames the marker has
+    been missed (wider than that costs as much as the whole-frame search)."""
+    r = state.radius or 0.0
+    return (3.0 * r + 2.0 * state.speed_px() + 4.0) * 2.0 ** min(state.missed, 2)
+
+
+def search_whole_frame(state: MarkerState, pred: tuple[float, float] | None) -> bool:
+    """Is this frame one where the whole frame is searched for the marker?"""
+    if pred is None or len(state.history) < 2:
+        # Not yet seen, or seen once, so with no velocity to say where to look (a
+        # thrown ball moves many radii a frame): each of the first frames.
+        return state.missed < FULL_SEARCH_EVERY or state.missed % FULL_SEARCH_EVERY == 0
+    return state.missed > 0 and state.missed % FULL_SEARCH_EVERY == 0
+
+
+def full_hsv(frame: Frame, hsv_cache: dict) -> NDArray[np.uint8]:
+    """The whole frame's white-balanced HSV, made once per frame for all markers."""
+    if "full" not in hsv_cache:
+        if hsv_cache.get("gains") is None:
+            hsv_cache["gains"] = white_balance_gains(frame.rgb)
+        hsv_cache["full"] = balanced_hsv(frame.rgb, hsv_cache["gains"])
+    return hsv_cache["full"]
+
+
+def full_frame_blob(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
+                     pred: tuple[float, float] | None) -> tuple[Blob | None, str]:
+    """The marker's blob in the whole frame, white-balanced (lost, or never seen)."""
+    near = pred if pred is not None else state.spec.near_px
+    blob, status, rivals = acquire(full_hsv(frame, hsv_cache), state.spec, state.area, near)
+    if blob is not None and pred is None and near is not None and np.hypot(
+            blob.x - near[0], blob.y - near[1]) > 4 * blob.radius + 20:
+        return None, "not_found"  # not yet where the user said it is
+    if blob is not None and rivals and pred is None and not state.notes:
+        where = "; ".join(f"({r.x:.0f}, {r.y:.0f})" for r in rivals[:3])
+        state.notes.append(
+            f"marker {state.spec.name}: {1 + len(rivals)} blobs of its colour and size at "
+            f"t = {t:.3f} s; following the one at ({blob.x:.0f}, {blob.y:.0f}), not "
+            f"{where}; if that is the wrong one, cover or recolour the others, or say "
+            f"where it is: --marker {state.spec.name}=COLOUR@X,Y")
+    return blob, status
+
+
+def other_blobs(frame: Frame, state: MarkerState, hsv_cache: dict,
+                 pred: tuple[float, float], tried: Blob, wide: bool, most: int = 3
+                 ) -> list[Blob]:
+    """Blobs of the marker's colour, shape and size, nearest to the prediction first,
+    other than the one ``tried``, within reach: the search window (:func:`window`)
+    or, ``wide``, 20 radii plus three times the last step (a thrown ball moves 15
+    radii a frame). A blob farther off is another object of the same colour, not
+    the marker."""
+    reach = (20.0 * (state.radius or tried.radius) + 3.0 * state.speed_px() if wide
+             else np.sqrt(2.0) * window(state))
+    good = [b for b in find_blobs(full_hsv(frame, hsv_cache), state.spec) if b.disc_like()
+            and (not state.area or 0.3 * state.area <= b.area <= 3.0 * state.area)
+            and np.hypot(b.x - tried.x, b.y - tried.y) > 1.0
+            and np.hypot(b.x - pred[0], b.y - pred[1]) <= reach]
+    good.sort(key=lambda b: (b.x - pred[0]) ** 2 + (b.y - pred[1]) ** 2)
+    return good[:most]
