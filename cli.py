@@ -251,6 +251,9 @@ def _print_warnings(warnings: Sequence[str]) -> None:
 
 
 def cmd_view(args: argparse.Namespace) -> int:
+    from .run_folder import out_of_date
+
+    _print_warnings(out_of_date(args.run))
     path = _record(Path(args.run), args.spawn)
     print(f"wrote {path}; open it with `rerun {path}` (pip install rerun-sdk gives the viewer)")
     return 0
@@ -410,6 +413,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     known = parse_known(args.known, "spool")
     if not args.fit_speed:
         known.setdefault("speed_mm_s", args.speed_mm_s)
+    from .run_folder import out_of_date
+
+    _print_warnings(out_of_date(args.run, ["track"]))
     result, files = compare_run(Path(args.run), known)
     for m in result.fit.messages:
         print(f"note: {m}")
@@ -425,6 +431,9 @@ def cmd_fit(args: argparse.Namespace) -> int:
 
     known = parse_known(args.known, args.model)
     from .report.fit import fit_report
+    from .run_folder import out_of_date
+
+    _print_warnings(out_of_date(args.run, ["track"]))
 
     with _progress(f"fit {args.model}", unit="fit") as bar:
         def fitting(effects: tuple[str, ...]) -> None:

@@ -44,6 +44,7 @@ from .run_folder import (
     TRACKS,
     claimed,
     clear_for,
+    record_step,
     run_folder,
 )
 from .tracker.gaps import fill_gaps
@@ -296,6 +297,8 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
     from .report.summary import write_report  # matplotlib: loaded once the video is read
 
     files["report"] = write_report(folder)
+    record_step(folder, "track", [n for n in (TRACKS, KINEMATICS) if (folder / n).exists()],
+                video=video)
     return RunResult(folder, tracks, kinematics, cal, files, warnings)
 
 
@@ -383,6 +386,7 @@ def fit_run(run: Path, model: str, known: dict[str, float],
     ok = np.isfinite(measured["t_s"]) & np.isfinite(measured["theta_deg"])
     files = write_fit_report(folder.fit_dir, result, measured["t_s"].to_numpy(float)[ok])
     files.append(write_report(folder.path))
+    record_step(folder.path, "fit", [f"{FIT_DIR}/{FIT_TABLE}"], [KINEMATICS, TRACKS])
     return result, files
 
 
@@ -407,6 +411,7 @@ def compare_run(run: Path, known: dict[str, float]) -> tuple[Comparison, list[Pa
     files.append(write_text_atomic(run / COMPARE_REPORT,
                                    compare_markdown(report, result.summary, figures)))
     files.append(write_report(run))
+    record_step(run, "compare", [COMPARE_TABLE], [KINEMATICS])
     return result, files + figures
 
 

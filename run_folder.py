@@ -7,10 +7,11 @@ the readers use these names, never their own spelling.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import shutil
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,6 +19,7 @@ from pathlib import Path
 import pandas as pd
 
 from .errors import CranktrackError
+from .files import write_json_atomic
 
 #: Per-frame marker positions, px (and mm after a calibration): the tracks table.
 TRACKS = "tracks.csv"
@@ -46,12 +48,15 @@ RECORDING = "run.rrd"
 TRACKER_STATE = ".tracker_state.pkl"
 #: Held while a `track` writes the folder: the writer's process id.
 LOCK = ".cranktrack.lock"
+#: What each step made and from what: the SHA-256 of the tables it wrote and read,
+#: and the video's size and time, so a later step can tell what is out of date.
+MANIFEST = "manifest.json"
 
 #: What a tracking run writes or derives from its tracks: cleared before a fresh run
 #: of the same video, so a file of the earlier run (kinematics from an earlier
 #: scale, a fit of the earlier tracks) cannot sit beside the new ones.
 RUN_OUTPUTS = (TRACKS, KINEMATICS, RUN_INFO, CALIBRATION, REPORT, KINEMATICS_FIGURE,
-               COMPARE_TABLE, COMPARE_FIT, COMPARE_REPORT, RECORDING)
+               COMPARE_TABLE, COMPARE_FIT, COMPARE_REPORT, RECORDING, MANIFEST)
 
 
 @dataclass(frozen=True)
@@ -160,3 +165,69 @@ def clear_for(folder: Path, video: str | os.PathLike) -> list[str]:
 def run_folder(path: str | os.PathLike | RunFolder) -> RunFolder:
     """``path`` as a :class:`RunFolder`."""
     return path if isinstance(path, RunFolder) else RunFolder(Path(path))
+
+
+def _sha256(path: Path) -> str | None:
+    """The file's SHA-256 (hex), or None where it is missing or unreadable."""
+    try:
+        return hashlib.sha256(path.read_bytes()).hexdigest()
+    except OSError:
+        return None
+
+
+def _video_stamp(video: str | os.PathLike) -> dict:
+    """What says a video is the same file: its path, size (bytes) and modification time."""
+    p = Path(video).resolve()
+    try:
+        st = p.stat()
+    except OSError:
+        return {"path": str(p)}
+    return {"path": str(p), "bytes": st.st_size, "mtime_ns": st.st_mtime_ns}
+
+
+def record_step(folder: str | os.PathLike, step: str, made: Sequence[str],
+                read: Sequence[str] = (), video: str | os.PathLike | None = None) -> Path:
+    """Write into the folder's manifest what ``step`` (``track``, ``compare``, ``fit``)
+    ``made`` and ``read``: each file's SHA-256, by its name in the folder. ``track``
+    also gives the ``video``. The other steps' entries are kept: a fresh run has
+    cleared the manifest with the rest (:func:`clear_for`), and after a resumed one
+    they say which results were made from the tables before it."""
+    folder = Path(folder)
+    manifest = RunFolder(folder).read_json(MANIFEST) or {"schema": 1, "steps": {}}
+    if video is not None:
+        manifest["video"] = _video_stamp(video)
+    manifest["steps"][step] = {"made": {n: _sha256(folder / n) for n in made},
+                               "read": {n: _sha256(folder / n) for n in read}}
+    return write_json_atomic(folder / MANIFEST, manifest)
+
+
+def out_of_date(folder: str | os.PathLike, steps: Sequence[str] | None = None) -> list[str]:
+    """Sentences on what in the run folder no longer matches what made it: a table
+    changed since the step that wrote it, a step's results made from an earlier table,
+    a video changed since it was tracked. Only the ``steps`` named are looked at (all
+    by default). Empty for a folder without a manifest (made before there was one) or
+    with nothing out of date."""
+    folder = Path(folder)
+    manifest = RunFolder(folder).read_json(MANIFEST)
+    if not manifest:
+        return []
+    notes = []
+    stamp = manifest.get("video") or {}
+    if "bytes" in stamp and _video_stamp(stamp["path"]) != stamp:
+        notes.append(f"the video {stamp['path']} has changed or gone since it was tracked; "
+                     "track it again for results of the video as it is now")
+    for step, entry in manifest.get("steps", {}).items():
+        if steps is not None and step not in steps:
+            continue
+        for name, digest in entry.get("made", {}).items():
+            now = _sha256(folder / name)
+            if digest and now and now != digest:
+                notes.append(f"{name} has changed since `cranktrack {step}` wrote it (edited, "
+                             "or written by another program)")
+        stale = [name for name, digest in entry.get("read", {}).items()
+                 if digest and _sha256(folder / name) != digest]
+        if stale:
+            made = list(entry.get("made", {})) or ["its results"]
+            notes.append(f"{', '.join(made)} {'was' if len(made) == 1 else 'were'} made from "
+                         f"an earlier {' and '.join(stale)}; run `cranktrack {step}` again")
+    return notes

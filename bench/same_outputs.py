@@ -8,11 +8,11 @@ Each file's SHA-256 goes into ``OUT/digest.txt`` and its stdout into ``OUT/stdou
 
 Machine-specific text is made neutral before hashing: the output folder's path becomes
 ``<out>``, and JSON's ``created`` time and package version and ``report.md``'s line with
-them are dropped. Numbers in the two calibration files (``camera.json``, ``plane.json``)
-are rounded to 6 significant digits: OpenCV's camera calibration differs from the 7th
-digit on (distortion; the focal length from the 10th) between two runs of the same code
-on the same photos, which no refactor can keep. Rerun recordings (``.rrd``) carry a random
-recording id and are listed by size only.
+them are dropped, as is ``manifest.json``'s time stamp of the video. Numbers in the two
+calibration files (``camera.json``, ``plane.json``) are rounded to 6 significant digits:
+OpenCV's camera calibration differs from the 7th digit on (distortion; the focal length
+from the 10th) between two runs of the same code on the same photos, which no refactor can
+keep. Rerun recordings (``.rrd``) carry a random recording id and are listed by size only.
 
     python bench/same_outputs.py /tmp/before            # at the old commit
     python bench/same_outputs.py /tmp/after --against /tmp/before/digest.txt
@@ -77,6 +77,8 @@ def neutral(path: Path, out: Path) -> bytes:
                                                                                  "<out>")
         if path.suffix == ".json":
             text = re.sub(r'\s*"(created|cranktrack)": "[^"]*",?', "", text)
+            # The manifest's stamp of the video: the render's own file time.
+            text = re.sub(r'\s*"mtime_ns": \d+,?', "", text)
         if path.name in CALIBRATION_FILES:
             text = re.sub(r"-?\d+\.\d+(?:e[-+]?\d+)?", lambda m: f"{float(m.group(0)):.6g}",
                           text)

@@ -363,3 +363,38 @@ def test_a_plane_photo_that_is_not_there_or_not_an_image_is_our_sentence_only(tm
     p = _run("calibrate", "plane", str(tmp_path / photo), "--out", str(tmp_path / "p.json"))
     assert p.returncode == 1 and p.stderr.count("\n") == 1  # no OpenCV WARN line before it
     assert photo in p.stderr and "Traceback" not in p.stderr
+
+
+def test_results_made_from_an_earlier_table_are_called_out_of_date(small_h264, tmp_path,
+                                                                      capsys):
+    import json
+    import os
+
+    run = tmp_path / "run"
+    video = tmp_path / "clip.mp4"
+    video.write_bytes(small_h264.video.read_bytes())
+    assert main(["track", str(video), "--out", str(run), "--known-length", "A-C=160.8"]) == 0
+    assert main(["compare", str(run)]) == 0
+    manifest = json.loads((run / "manifest.json").read_text())
+    assert set(manifest["steps"]) == {"track", "compare"}
+    assert manifest["steps"]["compare"]["read"]["kinematics.csv"] == \
+        manifest["steps"]["track"]["made"]["kinematics.csv"]
+    capsys.readouterr()
+    assert main(["view", str(run)]) == 0
+    assert "warning" not in capsys.readouterr().err  # nothing out of date yet
+    # The kinematics edited by hand (a row dropped) after compare read them.
+    kin = pd.read_csv(run / "kinematics.csv")
+    kin.iloc[1:].to_csv(run / "kinematics.csv", index=False)
+    assert main(["view", str(run)]) == 0
+    err = capsys.readouterr().err
+    assert "kinematics.csv has changed since `cranktrack track` wrote it" in err
+    assert "compare.csv was made from an earlier kinematics.csv; run `cranktrack compare` " \
+           "again" in err
+    # compare warns of the edited table (its own results it is about to replace, not).
+    assert main(["compare", str(run)]) == 0
+    err = capsys.readouterr().err
+    assert "kinematics.csv has changed since" in err and "compare.csv was made" not in err
+    # The video changed after it was tracked.
+    os.utime(video, ns=(0, 0))
+    assert main(["view", str(run)]) == 0
+    assert f"the video {video.resolve()} has changed or gone" in capsys.readouterr().err

@@ -188,7 +188,10 @@ def fit(run, known: dict) -> dict:
     (("slack_mm=1",), ["slack_mm"], {"slack_mm": 1.0}),
     (("spool_growth_per_s=0.1",), ["spool_growth_per_s"], {"spool_growth_per_s": 0.1}),
     (("return_spring_hz=3",), ["return_spring_hz"], {"return_spring_hz": 3.0}),
-    (("wire_stretch_mm=0.5",), ["wire_stretch_mm"], {"wire_stretch_mm": 0.5}),
+    # 36 s through the tracker; its physics written apart from the fitter is
+    # test_open_world.py's SpoolBed(stretch_mm=0.5), in memory.
+    pytest.param(("wire_stretch_mm=0.5",), ["wire_stretch_mm"], {"wire_stretch_mm": 0.5},
+                 marks=pytest.mark.slow),
     # Two at once on a tracked render is slow (20 s); in memory it is
     # test_two_effects_at_once_are_both_found.
     pytest.param(("slack_mm=1", "return_spring_hz=3"), ["slack_mm", "return_spring_hz"],
