@@ -227,7 +227,7 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
                                                     "roi": roi, "state": state}))
 
     def checkpoint(state: TrackerState) -> None:
-        write_csv_atomic(folder / TRACKS, tracks_table(state.rows, specs))
+        write_csv_atomic(folder / TRACKS, tracks_table(state.rows, specs, state.radii()))
         save_state(state)
 
     try:

@@ -280,3 +280,25 @@ def test_a_cut_of_a_420_frame_is_that_part_of_the_whole_frame():
     assert np.array_equal(cut.rgb, frame.rgb[10:34, 6:38])
     with pytest.raises(ValueError):
         frame.cropped(5, 10, 37, 34)
+
+
+def test_no_row_is_ok_with_a_scatter_as_large_as_the_marker():
+    from cranktrack.tracker.track import tracks_table
+
+    rng = np.random.default_rng(7)
+    n = 60
+    specs = (MarkerSpec("jumpy", hue_deg=0), MarkerSpec("steady", hue_deg=120))
+    rows = []
+    for i in range(n):
+        # Both fits claim 0.1 px; one track really jumps by 6 px a frame (twice the radius),
+        # the other 0.3 px.
+        jx, jy = 100 + rng.normal(0, 6.0), 80 + rng.normal(0, 6.0)
+        sx, sy = 40 + 0.5 * i + rng.normal(0, 0.3), 30 + rng.normal(0, 0.3)
+        rows.append([i, i / 30, jx, jy, 0.1, True, "ok", sx, sy, 0.1, True, "ok"])
+    tracks = tracks_table(rows, specs, {"jumpy": 3.0, "steady": 3.0})
+    assert not tracks["jumpy_ok"].any()
+    assert (tracks["jumpy_status"] == "refine_failed").all()
+    assert tracks["jumpy_x_px"].isna().all() and tracks["jumpy_sigma_px"].isna().all()
+    assert tracks["steady_ok"].all()
+    # The floor is the scatter drawn, not the fits' 0.1 px.
+    assert 0.2 < tracks["steady_sigma_px"].median() < 0.45

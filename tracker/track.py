@@ -257,6 +257,10 @@ class TrackerState:
         """The state before the first frame: nothing learned yet."""
         return cls([MarkerState(spec) for spec in specs], {"gains": None}, [])
 
+    def radii(self) -> dict[str, float | None]:
+        """Each marker's radius as first fitted, px (None where never found)."""
+        return {st.spec.name: st.radius for st in self.markers}
+
     @property
     def last_frame(self) -> int:
         """Index of the last finished frame (−1 before the first)."""
@@ -397,22 +401,34 @@ def locate(frame: Frame | NDArray[np.uint8], markers: Sequence[MarkerSpec] = DEF
     return pd.DataFrame(rows, columns=["marker", "x_px", "y_px", "sigma_px", "ok", "status"])
 
 
-def tracks_table(rows: list[list], specs: tuple[MarkerSpec, ...]) -> pd.DataFrame:
+def tracks_table(rows: list[list], specs: tuple[MarkerSpec, ...],
+                 radii: dict[str, float | None] | None = None) -> pd.DataFrame:
     """The tracks table from finished rows.
 
     Each found centre's σ is raised to the track's local frame-to-frame scatter
     where its own fit claims less (:mod:`.scatter`). The rows keep the fit's σ,
     so a resumed run raises them over the same frames as an uninterrupted one.
+    Where the raised σ is as large as the marker's radius (``radii``, px, by
+    marker name: the track jumps about by a marker's size, so no one point is
+    located), the row is a gap with status ``refine_failed``.
     """
     tracks = pd.DataFrame(rows, columns=tracker_columns(tuple(s.name for s in specs)))
     tracks["frame"] = tracks["frame"].astype(int)
     for s in specs:
-        ok = tracks[s.name + "_ok"].astype(bool)
-        tracks[s.name + "_ok"] = ok
+        ok = tracks[s.name + "_ok"].astype(bool).to_numpy()
         xy = tracks[[s.name + "_x_px", s.name + "_y_px"]].to_numpy(float, copy=True)
-        xy[~ok.to_numpy()] = np.nan
-        tracks[s.name + "_sigma_px"] = with_scatter_floor(
-            tracks[s.name + "_sigma_px"].to_numpy(float), xy)
+        xy[~ok] = np.nan
+        sigma = with_scatter_floor(tracks[s.name + "_sigma_px"].to_numpy(float), xy)
+        radius = (radii or {}).get(s.name)
+        if radius is not None:
+            lost = ok & ~(sigma < radius)
+            if lost.any():
+                ok = ok & ~lost
+                tracks.loc[lost, [s.name + "_x_px", s.name + "_y_px"]] = np.nan
+                sigma[lost] = np.nan
+                tracks.loc[lost, s.name + "_status"] = "refine_failed"
+        tracks[s.name + "_ok"] = ok
+        tracks[s.name + "_sigma_px"] = sigma
     return tracks
 
 
@@ -493,7 +509,7 @@ def track(
         if span.given:
             raise CranktrackError(f"no frame of {source.path} lies {span.describe()}")
         raise CranktrackError(f"no frame of {source.path} could be decoded")
-    tracks = tracks_table(state.rows, specs)
+    tracks = tracks_table(state.rows, specs, state.radii())
     found = {s.name: float(tracks[s.name + "_ok"].mean()) for s in specs}
     learned = {st.spec.name: {"hue_deg": round(st.spec.hue_deg, 2),
                               "hue_tol_deg": round(st.spec.hue_tol_deg, 2),
