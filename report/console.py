@@ -10,6 +10,8 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # pandas is not imported before the first frame (start-up time)
     import pandas as pd
 
+    from ..loop.compare import Comparison
+
 
 def format_table(rows: list[list[str]]) -> str:
     """Rows of cells as aligned columns, the first row a header underlined with dashes;
@@ -31,7 +33,7 @@ def drive_errors_text(errors: pd.DataFrame) -> str:
     return format_table(rows)
 
 
-def comparison_text(result) -> str:
+def comparison_text(result: Comparison) -> str:
     """The summary table of a comparison (:func:`..loop.compare.compare`'s result)."""
     rows = [["quantity", "RMS error", "max error", "RMS % of peak", "fit %"]]
     for r in result.summary.itertuples():
