@@ -212,6 +212,13 @@ def out_of_date(folder: str | os.PathLike, steps: Sequence[str] | None = None) -
     if not manifest:
         return []
     notes = []
+    digests: dict[str, str | None] = {}  # each table hashed once, however many steps name it
+
+    def now(name: str) -> str | None:
+        if name not in digests:
+            digests[name] = _sha256(folder / name)
+        return digests[name]
+
     stamp = manifest.get("video") or {}
     if "bytes" in stamp and _video_stamp(stamp["path"]) != stamp:
         notes.append(f"the video {stamp['path']} has changed or gone since it was tracked; "
@@ -220,12 +227,11 @@ def out_of_date(folder: str | os.PathLike, steps: Sequence[str] | None = None) -
         if steps is not None and step not in steps:
             continue
         for name, digest in entry.get("made", {}).items():
-            now = _sha256(folder / name)
-            if digest and now and now != digest:
+            if digest and now(name) and now(name) != digest:
                 notes.append(f"{name} has changed since `cranktrack {step}` wrote it (edited, "
                              "or written by another program)")
         stale = [name for name, digest in entry.get("read", {}).items()
-                 if digest and _sha256(folder / name) != digest]
+                 if digest and now(name) != digest]
         if stale:
             made = list(entry.get("made", {})) or ["its results"]
             notes.append(f"{', '.join(made)} {'was' if len(made) == 1 else 'were'} made from "
