@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import CranktrackError
+from .camera_model import distort_points, undistort_points
 
 #: A view is flagged when its RMS exceeds this multiple of the median view's.
 BAD_VIEW_FACTOR = 3.0
@@ -116,14 +117,11 @@ class CameraCalibration:
 
     def undistort_points(self, xy_px: NDArray) -> NDArray[np.float64]:
         """Image points (px, (n, 2)) to ideal pinhole points (px, same K), NaN kept."""
-        pts = np.asarray(xy_px, np.float64).reshape(-1, 2)
-        out = np.full_like(pts, np.nan)
-        ok = np.isfinite(pts).all(axis=1)
-        if ok.any():
-            und = cv2.undistortPoints(pts[ok].reshape(-1, 1, 2), self.camera_matrix,
-                                      self.distortion, P=self.camera_matrix)
-            out[ok] = und.reshape(-1, 2)
-        return out
+        return undistort_points(xy_px, self.camera_matrix, self.distortion)
+
+    def distort_points(self, ideal_px: NDArray) -> NDArray[np.float64]:
+        """Ideal pinhole points (px, (n, 2)) to where this lens puts them (px), NaN kept."""
+        return distort_points(ideal_px, self.camera_matrix, self.distortion)
 
     def to_dict(self) -> dict:
         return {

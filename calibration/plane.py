@@ -71,12 +71,7 @@ class PlaneCalibration:
         with np.errstate(invalid="ignore", divide="ignore"):
             ideal = h[:, :2] / h[:, 2:3]
         if self.camera is not None:
-            ok = np.isfinite(ideal).all(axis=1)
-            K = self.camera.camera_matrix
-            norm = (ideal[ok] - K[:2, 2]) / np.array([K[0, 0], K[1, 1]])
-            obj = np.hstack([norm, np.ones((len(norm), 1))])
-            img, _ = cv2.projectPoints(obj, np.zeros(3), np.zeros(3), K, self.camera.distortion)
-            ideal[ok] = img.reshape(-1, 2)
+            ideal = self.camera.distort_points(ideal)
         return ideal
 
     def to_plane(self, x_px: NDArray, y_px: NDArray) -> tuple[NDArray, NDArray]:

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ..calibration.camera_model import distort_points, tilt_points, undistort_points
 from .candidates import CAMERA_PARAMETERS, DEFAULT_HFOV_DEG, READOUT
 
 
@@ -35,63 +36,41 @@ class CameraView:
     side: float
 
 
-def _tilted(q: NDArray, tau: float, forward: bool) -> NDArray:
-    """A pinhole's tilt by ``tau`` (rad) about its x axis, in coordinates over the focal
-    length, re-aimed so the image centre stays on the centre: forward from the image an
-    untilted camera would take, or back."""
-    c, s = np.cos(tau), np.sin(tau)
-    x, y = q[:, 0], q[:, 1]
-    if forward:
-        y = y - np.tan(tau)
-        d = c - y * s
-        return np.stack([x / d, (y * c + s) / d], axis=1)
-    qy = (y * c - s) / (c + y * s)
-    return np.stack([x * (c - qy * s), qy + np.tan(tau)], axis=1)
-
-
 def _camera_maps(values: dict[str, float], size: tuple[int, int]
                  ) -> tuple[Callable[[NDArray], NDArray], Callable[[NDArray], NDArray]]:
     """(seen, ideal): where the camera effects put an ideal image point, and back, px.
 
-    Tilts are exact pinhole tilts (:func:`_tilted`, about the image's horizontal
-    axis for ``tilt_vertical_deg``, its vertical axis for ``tilt_horizontal_deg``)
-    for a lens of ``hfov_deg`` (:data:`DEFAULT_HFOV_DEG` unless known); the lens
-    then scales coordinates centred on the image and over its half-width by
-    ``1 + k·|u|²``, k = ``lens_edge_pct``/100.
+    The camera is :mod:`cranktrack.calibration.camera_model`'s: exact pinhole tilts
+    (about the image's horizontal axis for ``tilt_vertical_deg``, its vertical axis
+    for ``tilt_horizontal_deg``) for a lens of ``hfov_deg`` (:data:`DEFAULT_HFOV_DEG`
+    unless known), then OpenCV's radial lens with k1 = ``lens_edge_pct``/100 over
+    coordinates centred on the image and divided by its half-width — so a point at
+    the middle of the left or right edge moves outward by ``lens_edge_pct`` %.
     """
     c = (np.asarray(size, float) - 1.0) / 2.0
     half = size[0] / 2.0
     k = values.get("lens_edge_pct", 0.0) / 100.0
+    lens = np.array([[half, 0.0, c[0]], [0.0, half, c[1]], [0.0, 0.0, 1.0]])
+    distortion = np.array([k, 0.0, 0.0, 0.0, 0.0])
     tilts = []
-    for axis, swap in (("vertical", False), ("horizontal", True)):
+    for axis, about in (("vertical", "x"), ("horizontal", "y")):
         # Signed as ``cranktrack synth --effect tilt_deg`` turns its camera.
         tau = -np.radians(values.get(f"tilt_{axis}_deg", 0.0))
         if tau:
             fov = np.radians(values.get("hfov_deg", DEFAULT_HFOV_DEG))
-            tilts.append((tau, half / np.tan(fov / 2.0), swap))
+            tilts.append((tau, half / np.tan(fov / 2.0), about))
 
     def tilt(px: NDArray, forward: bool) -> NDArray:
-        for tau, f, swap in tilts if forward else tilts[::-1]:
-            q = (px - c) / f
-            q = _tilted(q[:, ::-1], tau, forward)[:, ::-1] if swap else _tilted(q, tau, forward)
-            px = c + f * q
+        for tau, f, about in tilts if forward else tilts[::-1]:
+            px = tilt_points(px, tau, f, c, about, forward)
         return px
 
     def seen(px: NDArray) -> NDArray:
-        u = (tilt(px, True) - c) / half
-        return c + half * u * (1.0 + k * np.sum(u**2, axis=1, keepdims=True))
+        px = tilt(px, True)
+        return distort_points(px, lens, distortion) if k else px
 
     def ideal(px: NDArray) -> NDArray:
-        w = (px - c) / half
-        u = w.copy()
-        if k:
-            for _ in range(30):  # k·|u|² ≪ 1: a contraction that settles in a few steps
-                step = w / (1.0 + k * np.sum(u**2, axis=1, keepdims=True))
-                done = np.max(np.abs(step - u)) < 1e-13
-                u = step
-                if done:
-                    break
-        return tilt(c + half * u, False)
+        return tilt(undistort_points(px, lens, distortion) if k else px, False)
 
     return seen, ideal
 
