@@ -318,7 +318,8 @@ def _view_command(sub: argparse._SubParsersAction) -> None:
 def _demo_command(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("demo", help="render the default spool scene, track it, compare with "
                                     "the model")
-    p.add_argument("--out", help="output folder (default: a new temporary folder)")
+    p.add_argument("--out", help="output folder (default: ./demo-output, replaced on each "
+                                  "run)")
     _add_render_options(p)
     _add_scene_options(p)
     p.add_argument("--window-s", type=_positive, default=None,

@@ -11,8 +11,8 @@ from __future__ import annotations
 import argparse
 import os
 import shlex
+import shutil
 import sys
-import tempfile
 from collections.abc import Callable, Iterable, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -22,6 +22,9 @@ import numpy as np
 from .arguments import build_parser
 from .errors import CranktrackError, RunInterrupted
 from .report.console import comparison_text, drive_errors_text, fit_text, format_table
+
+#: Where `cranktrack demo` writes when given no --out: under the folder it is run from.
+DEMO_FOLDER = "demo-output"
 
 
 def parse_numbers(items: Iterable[str] | None, names: Iterable[str], flag: str, what: str,
@@ -349,9 +352,10 @@ def cmd_track(args: argparse.Namespace) -> int:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
+    from .files import replace_folder
     from .loop.compare import errors_against_drive, spool_model
 
-    out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="cranktrack-demo-"))
+    out = Path(args.out) if args.out else replace_folder(DEMO_FOLDER, ".cranktrack-demo")
     scenario = _spool_scenario(args)
     d = scenario.drive
     print(f"Rendering the spool test bed of thesis Table 2.2 (L1 {d.L1} mm, L2 {d.L2} mm, "
@@ -404,7 +408,26 @@ def cmd_demo(args: argparse.Namespace) -> int:
     print(f"  scene: {files.video.name}, {files.truth.name}, {files.scene.name} in {files.folder}")
     print(f"  run:   {', '.join(p.name for p in [*run.files.values(), *plots])} in {run.folder}")
     print(f"  loop:  {run2.folder / 'fit' / 'report.md'} (and fit/ in each run)")
+    print(f"next: cranktrack view {run.folder}  (the recording, in the Rerun viewer)")
+    hint = _path_hint()
+    if hint:
+        print(hint)
     return 0
+
+
+def _path_hint() -> str:
+    """A sentence on how to type ``cranktrack`` when this one is not on PATH (run from a
+    virtual environment that is not activated, as ``make demo`` does); else ''."""
+    here = Path(sys.argv[0]).resolve() if sys.argv and sys.argv[0] else None
+    found = shutil.which("cranktrack")
+    if here is None or here.name != "cranktrack" or (found and Path(found).resolve() == here):
+        return ""
+    activate = here.parent / "activate"
+    shown = os.path.relpath(activate) if activate.is_file() else None
+    if shown:
+        return (f"cranktrack is not on your PATH: run `source {shown}` first, or type "
+                f"{os.path.relpath(here)} instead of cranktrack")
+    return f"cranktrack is not on your PATH: type {here} instead of cranktrack"
 
 
 def cmd_compare(args: argparse.Namespace) -> int:

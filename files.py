@@ -10,6 +10,7 @@ from __future__ import annotations
 import errno
 import json
 import os
+import shutil
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -78,3 +79,27 @@ def write_csv_atomic(path: str | os.PathLike, table: pd.DataFrame) -> Path:
 def write_json_atomic(path: str | os.PathLike, data: Any) -> Path:
     """Write JSON (indented, UTF-8) atomically."""
     return write_text_atomic(path, json.dumps(data, indent=2, allow_nan=True) + "\n")
+
+
+def replace_folder(path: str | os.PathLike, stamp: str) -> Path:
+    """Empty ``path`` for a new run of a command that owns it, or make it.
+
+    A folder is cleared only if it holds the file ``stamp`` (which this writes), so a
+    folder of the user's that happens to have the same name is never deleted.
+    """
+    p = Path(path)
+    if p.exists() and not (p / stamp).is_file():
+        if p.is_dir() and not any(p.iterdir()):
+            pass
+        else:
+            raise CranktrackError(f"{p} exists and was not made by cranktrack; move it away or "
+                                  "give another folder with --out")
+    elif p.exists():
+        try:
+            shutil.rmtree(p)
+        except OSError as e:
+            raise CranktrackError(f"cannot clear the old {p} ({e.strerror or e}); remove it by "
+                                  "hand") from e
+    folder = ensure_dir(p)
+    write_text_atomic(folder / stamp, "made by cranktrack; the next run clears this folder\n")
+    return folder

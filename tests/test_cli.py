@@ -6,22 +6,55 @@ import sys
 import pandas as pd
 import pytest
 
-from cranktrack.cli import main
+from cranktrack.cli import _path_hint, main
+from cranktrack.errors import CranktrackError
+from cranktrack.files import replace_folder
 
 
-def _run(*args: str) -> subprocess.CompletedProcess:
+def _run(*args: str, cwd=None) -> subprocess.CompletedProcess:
     # A real process, so we see exactly what a user sees (and any traceback).
     return subprocess.run([sys.executable, "-m", "cranktrack.cli", *args],
-                          capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=300, cwd=cwd)
 
 
-def test_demo_prints_the_table_and_where_the_outputs_are(tmp_path):
-    p = _run("demo", "--out", str(tmp_path), "--size", "320x240", "--seconds", "2")
+def test_demo_prints_the_table_and_replaces_its_own_folder(tmp_path):
+    old = tmp_path / "demo-output"
+    old.mkdir()
+    (old / ".cranktrack-demo").write_text("")
+    (old / "from-last-time.txt").write_text("")
+    p = _run("demo", "--size", "320x240", "--seconds", "2", cwd=tmp_path)
     assert p.returncode == 0, p.stderr
     assert "theta_deg (all frames)" in p.stdout and "omega_rad_s" in p.stdout
-    assert f"outputs: {tmp_path}" in p.stdout
+    assert "outputs: demo-output" in p.stdout
+    assert not (old / "from-last-time.txt").exists()
     for name in ("scene/video.mp4", "scene/truth.csv", "run/tracks.csv", "run/kinematics.csv"):
-        assert (tmp_path / name).exists()
+        assert (old / name).exists()
+
+
+def test_a_folder_cranktrack_did_not_make_is_never_cleared(tmp_path):
+    mine = tmp_path / "demo-output"
+    mine.mkdir()
+    (mine / "thesis.tex").write_text("precious")
+    with pytest.raises(CranktrackError, match="not made by cranktrack"):
+        replace_folder(mine, ".cranktrack-demo")
+    assert (mine / "thesis.tex").read_text() == "precious"
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert (replace_folder(empty, ".stamp") / ".stamp").is_file()
+
+
+def test_a_venv_command_off_path_says_how_to_type_it(tmp_path, monkeypatch):
+    bin_ = tmp_path / ".venv" / "bin"
+    bin_.mkdir(parents=True)
+    (bin_ / "cranktrack").write_text("")
+    (bin_ / "activate").write_text("")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "argv", [str(bin_ / "cranktrack")])
+    monkeypatch.setenv("PATH", "/nonexistent")
+    assert "source .venv/bin/activate" in _path_hint()
+    monkeypatch.setenv("PATH", str(bin_))
+    (bin_ / "cranktrack").chmod(0o755)
+    assert _path_hint() == ""
 
 
 def test_synth_then_track(tmp_path, capsys):
