@@ -7,3 +7,19 @@ Packages: :mod:`cranktrack.tracker` (frames → marker tracks in px),
 loop: fit, residual, missing effect), :mod:`cranktrack.synthetic` (renders with known
 truth) and :mod:`cranktrack.report` (figures, Markdown, the Rerun recording).
 """
+
+#: The Python API (:mod:`cranktrack.api`), loaded on first use so that ``import
+#: cranktrack`` and the command line start without pandas, numba and PyAV.
+_API = ("track", "open_run", "fit", "Fit", "RunResult")
+
+
+def __getattr__(name: str):
+    if name in _API:
+        from . import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'cranktrack' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_API])

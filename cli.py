@@ -53,13 +53,10 @@ def parse_numbers(items: Iterable[str] | None, names: Iterable[str], flag: str, 
 
 def parse_known(items: list[str] | None, model: str = "spool") -> dict[str, float]:
     """``["L1_mm=160.8", "start_s=0.5"]`` → a dict, checked against the model's names."""
-    from .loop.simulate import KNOWN_NAMES
+    from .loop.simulate import known_names
 
-    names = KNOWN_NAMES.get(model)
-    if names is None:
-        raise CranktrackError(f"the {model!r} model cannot be fitted yet; available: "
-                              f"{', '.join(KNOWN_NAMES)}")
-    return parse_numbers(items, names, "--known", f"a {model} parameter", finite=True)
+    return parse_numbers(items, known_names(model), "--known", f"a {model} parameter",
+                         finite=True)
 
 
 def parse_effects(items: list[str] | None) -> dict[str, float]:

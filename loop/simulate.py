@@ -264,3 +264,13 @@ MODELS: dict[str, ModelSpec] = {
 #: What ``--known`` takes: each model's base parameters, and the lens's horizontal
 #: field of view, which the tilt candidates need.
 KNOWN_NAMES = {name: (*spec.base, "hfov_deg") for name, spec in MODELS.items()}
+
+
+def known_names(model: str) -> tuple[str, ...]:
+    """The parameters ``model`` takes as known (:data:`KNOWN_NAMES`); one sentence if the
+    model cannot be fitted."""
+    names = KNOWN_NAMES.get(model)
+    if names is None:
+        raise CranktrackError(f"the {model!r} model cannot be fitted yet; available: "
+                              f"{', '.join(KNOWN_NAMES)}")
+    return names

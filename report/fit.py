@@ -28,7 +28,16 @@ def fit_table(result: LoopResult, t_s: np.ndarray) -> pd.DataFrame:
 
 
 def plot_residuals(table: pd.DataFrame, result: LoopResult, path: Path) -> Path:
-    """θ with both models, and the residual before and after the accepted effects."""
+    """Save :func:`residual_figure` as a PNG at ``path``."""
+    path = Path(path)
+    residual_figure(table, result).savefig(path, dpi=110)
+    return path
+
+
+def residual_figure(table: pd.DataFrame, result: LoopResult) -> Figure:
+    """θ (deg) with both models, and the residual before and after the accepted effects,
+    over t (s); ``table`` is :func:`fit_table`'s. A bare matplotlib Figure: it leaves the
+    plotting backend alone, and a notebook shows it as it is."""
     fig = Figure(figsize=(7.5, 7.5))
     axes = fig.subplots(3, 1, sharex=True)
     t = table["t_s"]
@@ -51,9 +60,7 @@ def plot_residuals(table: pd.DataFrame, result: LoopResult, path: Path) -> Path:
     axes[1].legend(fontsize=8, loc="upper right")
     axes[-1].set_xlabel("t (s)")
     fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    return path
+    return fig
 
 
 #: What to look at on the rig when the loop names an effect.

@@ -1,0 +1,163 @@
+"""The Python API: what ``cranktrack track`` and ``cranktrack fit`` do, for a notebook.
+
+``import cranktrack as ct`` gives :func:`track`, :func:`open_run` and :func:`fit`.
+They write the same run folder as the commands (so ``cranktrack view`` and the
+reports work on it) and hand back DataFrames and a result object. Nothing here
+prints, shows a progress bar or changes matplotlib's backend.
+
+>>> import cranktrack as ct
+>>> ct.fit("no/such/run")
+Traceback (most recent call last):
+...
+cranktrack.errors.CranktrackError: no/such/run/kinematics.csv does not exist; run ...
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .errors import CranktrackError
+from .pipeline import RunResult, fit_run, track_run
+from .run_folder import FIT_DIR, FIT_TABLE, KINEMATICS, TRACKS, run_folder
+
+__all__ = ["Fit", "RunResult", "fit", "open_run", "track"]
+
+
+def _specs(markers: Mapping[str, str | float] | None):
+    from .tracker.markers import DEFAULT_MARKERS, parse_markers
+
+    if not markers:
+        return DEFAULT_MARKERS
+    return parse_markers([f"{name}={colour}" for name, colour in markers.items()])
+
+
+def track(video: str | os.PathLike, markers: Mapping[str, str | float] | None = None,
+          known_length: tuple[str, str, float] | None = None,
+          out: str | os.PathLike | None = None, calibration: str | os.PathLike | None = None,
+          start_s: float | None = None, end_s: float | None = None,
+          roi: tuple[int, int, int, int] | None = None, window_s: float | None = None,
+          fill_gaps: int = 0, on_frame: Callable[[int], None] | None = None) -> RunResult:
+    """Track ``video`` into a run folder and return the run (``.tracks``, ``.kinematics``).
+
+    ``markers`` maps names to colours as ``--marker`` takes them (``{"A": "green"}``,
+    ``{"ball": "white"}``, a hue in degrees, ``"#RRGGBB"``; default A green, B red,
+    C blue). ``known_length`` ("A", "C", mm) sets the scale, or ``calibration`` names a
+    plane calibration file; without either the tracks stay in pixels and there are no
+    kinematics. ``out`` is the run folder (default: ``<video name>_run`` beside the
+    video). ``start_s``/``end_s`` (s), ``roi`` (x, y, w, h px), ``window_s`` and
+    ``fill_gaps`` (frames) are the command's ``--start``, ``--end``, ``--roi``,
+    ``--window-s`` and ``--fill-gaps``; ``on_frame(index)`` is called after each frame.
+
+    Raises :class:`~cranktrack.errors.CranktrackError` with one sentence on bad input.
+    """
+    from .tracker.track import Roi, Span
+
+    video = Path(video)
+    if start_s is not None and end_s is not None and end_s < start_s:
+        raise CranktrackError(f"end_s ({end_s:g}) comes before start_s ({start_s:g})")
+    span = None
+    if start_s is not None or end_s is not None:
+        span = Span(start_s or 0.0, float("inf") if end_s is None else end_s, "s")
+    plane = None
+    if calibration is not None:
+        from .calibration.file import load_calibration
+
+        plane = load_calibration(calibration)
+    if known_length is not None:
+        a, b, mm = known_length
+        if not (np.isfinite(mm) and mm > 0):
+            raise CranktrackError(f"known_length {a}-{b} = {mm} mm is not a positive length")
+        known_length = (str(a), str(b), float(mm))
+    folder = Path(out) if out is not None else video.with_name(f"{video.stem}_run")
+    return track_run(video, folder, known_length, _specs(markers), window_s=window_s,
+                     fill_gaps_frames=fill_gaps, calibration=plane, span=span,
+                     roi=None if roi is None else Roi(*roi), on_frame=on_frame)
+
+
+def open_run(folder: str | os.PathLike) -> RunResult:
+    """A run folder written before (by :func:`track` or ``cranktrack track``), read back."""
+    from .calibration.file import load_calibration
+    from .run_folder import CALIBRATION
+
+    rf = run_folder(folder)
+    try:
+        tracks = pd.read_csv(rf.path / TRACKS)
+    except (OSError, ValueError) as e:
+        raise CranktrackError(f"{rf.path / TRACKS} cannot be read ({e})") from None
+    kinematics = rf.read_kinematics() if (rf.path / KINEMATICS).exists() else None
+    cal = load_calibration(rf.path / CALIBRATION) if (rf.path / CALIBRATION).exists() else None
+    return RunResult(rf.path, tracks, kinematics, cal)
+
+
+@dataclass(frozen=True)
+class Fit:
+    """What :func:`fit` found. ``loop`` is the whole :class:`~cranktrack.loop.result.LoopResult`;
+    ``table`` has t (s), measured θ, the base and final models and both residuals (deg)
+    per fitted frame; ``files`` what was written in the run's ``fit/`` folder."""
+
+    loop: object
+    table: pd.DataFrame
+    files: list[Path] = field(default_factory=list)
+
+    @property
+    def effects(self) -> list[str]:
+        """The effects the loop accepted, in order (empty: the base model is enough)."""
+        return list(self.loop.effects)
+
+    @property
+    def rmse_before(self) -> float:
+        """RMS of θ's residual under the base model, deg."""
+        return float(self.loop.diagnosis_before["rmse_deg"])
+
+    @property
+    def rmse_after(self) -> float:
+        """RMS of θ's residual with the accepted effects, deg."""
+        return float(self.loop.diagnosis_after["rmse_deg"])
+
+    @property
+    def values(self) -> dict[str, float]:
+        """Every parameter of the final model (units as in ``report()["parameters"]``)."""
+        return dict(self.loop.final.values)
+
+    def report(self) -> dict:
+        """The fit's report, as written to ``fit/report.json``."""
+        return self.loop.to_dict()
+
+    def plot(self):
+        """θ with both models and the residual before and after, as a matplotlib Figure
+        (shown by a notebook, saved with ``.savefig``; the backend is left alone)."""
+        from .report.fit import residual_figure
+
+        return residual_figure(self.table, self.loop)
+
+
+def fit(run: RunResult | str | os.PathLike, model: str = "spool",
+        known: Mapping[str, float] | None = None) -> Fit:
+    """Close the loop on a run: fit ``model`` (``"spool"``, ``"dynamic"`` or ``"sma"``)
+    to its θ(t), try the effects the model lacks, and write ``fit/`` in its folder.
+
+    ``known`` holds parameters measured on the rig (e.g. ``{"L1_mm": 160.8}``), held
+    fixed; the rest are fitted. Raises :class:`~cranktrack.errors.CranktrackError` with
+    one sentence for an unknown model or parameter, a non-finite value, or a run
+    without kinematics.
+    """
+    from .loop.simulate import known_names
+
+    folder = run.folder if isinstance(run, RunResult) else Path(run)
+    names = known_names(model)
+    known = dict(known or {})
+    for k, v in known.items():
+        if k not in names:
+            raise CranktrackError(f"{k!r} is not a {model} parameter ({', '.join(names)})")
+        if not np.isfinite(v):
+            raise CranktrackError(f"known {k} = {v} is not a finite number")
+    rf = run_folder(folder)
+    result, files = fit_run(rf.path, model, {k: float(v) for k, v in known.items()})
+    table = pd.read_csv(rf.path / FIT_DIR / FIT_TABLE)
+    return Fit(result, table, files)
