@@ -407,7 +407,7 @@ def compare_run(run: Path, known: dict[str, float]) -> tuple[Comparison, list[Pa
     report = {**result.fit.to_dict(), "errors": result.summary.to_dict(orient="records")}
     files = [write_csv_atomic(run / COMPARE_TABLE, result.table),
              write_json_atomic(run / COMPARE_FIT, report)]
-    figures = plot_comparison(result.table, run)
+    figures = plot_comparison(result.table, run, result.curve)
     files.append(write_text_atomic(run / COMPARE_REPORT,
                                    compare_markdown(report, result.summary, figures)))
     files.append(write_report(run))

@@ -217,13 +217,14 @@ class MeasureInfo:
 
 
 def _travel_sigma(dBx: Derivatives, dBy: Derivatives) -> tuple[np.ndarray, np.ndarray]:
-    """1-σ of B's velocity along its direction of travel (mm/s) and across it
-    (rad, as a fraction of the speed); along is the whole σ where B stands still."""
+    """1-σ of B's speed (mm/s, the velocity's σ along its direction of travel) and of
+    its direction (rad: the σ across the direction over the speed); the speed's σ is the
+    whole σ where B stands still."""
     vx, vy = dBx.d1, dBy.d1
     speed = np.hypot(vx, vy)
     with np.errstate(invalid="ignore", divide="ignore"):
         along = np.sqrt((vx * dBx.d1_sigma) ** 2 + (vy * dBy.d1_sigma) ** 2) / speed
-        across = np.sqrt((vy * dBx.d1_sigma) ** 2 + (vx * dBy.d1_sigma) ** 2) / speed
+        across = np.sqrt((vy * dBx.d1_sigma) ** 2 + (vx * dBy.d1_sigma) ** 2) / speed**2
     still = ~(speed > 0)
     along[still] = np.hypot(dBx.d1_sigma, dBy.d1_sigma)[still]
     return along, across

@@ -141,6 +141,8 @@ class Comparison:
     table: pd.DataFrame
     summary: pd.DataFrame
     fit: SpoolFit
+    #: The fitted model between the frames too (:func:`model_curve`), for figures.
+    curve: pd.DataFrame | None = None
 
 
 SIDE_BY_SIDE = ("theta_deg", "omega_rad_s", "vB_x_mm_s", "vB_y_mm_s", "vB_mm_s", "vB_dir_deg")
@@ -159,5 +161,21 @@ def compare_spool(measured: pd.DataFrame, known: dict[str, float] | None = None)
         if c == "vB_dir_deg":
             err = (err + 180.0) % 360.0 - 180.0
         table[f"{c}_error"] = err
-    return Comparison(table, error_summary(measured, model), fit)
+    return Comparison(table, error_summary(measured, model), fit,
+                      model_curve(fit.drive, measured["t_s"].to_numpy(float)))
+
+
+def model_curve(drive: SpoolDrive, t_s: np.ndarray, per_frame: int = 20) -> pd.DataFrame:
+    """The spool model between the frame times ``t_s`` (s) as well as at them:
+    ``per_frame`` samples per frame interval, and the drive's start and stop instants
+    with a point 1 ns either side, so a figure draws ω's steps as steps, not as ramps
+    from one frame to the next."""
+    t = t_s[np.isfinite(t_s)]
+    if len(t) < 2:
+        return spool_model(drive, t)
+    grid = np.linspace(t.min(), t.max(), per_frame * (len(t) - 1) + 1)
+    kinks = np.array([drive.start_s, drive.stop_s])
+    grid = np.concatenate([grid, t, *(kinks + d for d in (-1e-9, 0.0, 1e-9))])
+    grid = np.unique(grid[(grid >= t.min()) & (grid <= t.max())])
+    return spool_model(drive, grid)
 

@@ -21,26 +21,68 @@ FIGURES = (
 )
 
 
-def plot_comparison(table: pd.DataFrame, folder: str | os.PathLike) -> list[Path]:
+#: Direction of v_B is drawn only where |v_B| exceeds this many σ of itself and this
+#: fraction of its peak: below, B hardly moves, and a still marker's slow codec drift
+#: (which its σ need not cover) would be drawn as a direction of travel.
+DIRECTION_MIN_SIGMAS = 3.0
+DIRECTION_MIN_OF_PEAK = 0.02
+
+
+def _direction_shown(table: pd.DataFrame, curve: pd.DataFrame | None
+                     ) -> tuple[np.ndarray, np.ndarray | None]:
+    """Masks of the measured rows and the model's curve where v_B's direction means
+    something: measured |v_B| above :data:`DIRECTION_MIN_SIGMAS` σ and
+    :data:`DIRECTION_MIN_OF_PEAK` of its peak, the model's |v_B| above 0.1 % of its
+    peak."""
+    v, sv = table["vB_mm_s_measured"], table["vB_mm_s_measured_sigma"]
+    peak = np.nanmax(v.to_numpy(float), initial=0.0)
+    rows = ((v > DIRECTION_MIN_SIGMAS * sv) & (v > DIRECTION_MIN_OF_PEAK * peak)).to_numpy()
+    if curve is None:
+        return rows, None
+    speed = curve["vB_mm_s"].to_numpy(float)
+    return rows, speed > 1e-3 * np.nanmax(np.abs(speed), initial=0.0)
+
+
+def plot_comparison(table: pd.DataFrame, folder: str | os.PathLike,
+                    curve: pd.DataFrame | None = None) -> list[Path]:
     """Write the comparison figures from a :func:`compare_spool` table; returns the paths.
 
-    Measured values are dots with a ±1σ band, the model a line.
+    Measured values are dots with a ±1σ band, the fitted model a line — through
+    ``curve`` (the model between frames, :func:`~cranktrack.loop.compare.model_curve`)
+    when given, so the drive's steps are steps — and under each panel the residual,
+    measured − model, with the same ±1σ band about zero. The direction of v_B is left
+    out where B hardly moves (:data:`DIRECTION_MIN_SIGMAS`).
     """
     out = []
     t = table["t_s"]
+    shown, curve_shown = _direction_shown(table, curve)
     for name, title, panels in FIGURES:
-        fig = Figure(figsize=(6.4, 2.6 * len(panels) + 0.6))
-        axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)
-        for ax, (col, label) in zip(axes[:, 0], panels, strict=True):
+        fig = Figure(figsize=(6.4, 3.4 * len(panels) + 0.6))
+        axes = fig.subplots(2 * len(panels), 1, sharex=True, squeeze=False,
+                            gridspec_kw={"height_ratios": [3, 1] * len(panels)})[:, 0]
+        for ax, res, (col, label) in zip(axes[::2], axes[1::2], panels, strict=True):
             m, s = table[f"{col}_measured"], table[f"{col}_measured_sigma"]
+            err = table[f"{col}_error"]
+            if col == "vB_dir_deg":
+                m, s, err = m.where(shown), s.where(shown), err.where(shown)
             ax.fill_between(t, m - s, m + s, color="tab:blue", alpha=0.25, lw=0,
                             label="measured ±1σ")
             ax.plot(t, m, ".", color="tab:blue", ms=3, label="measured")
-            ax.plot(t, table[f"{col}_model"], "-", color="tab:red", lw=1.2, label="model")
+            if curve is not None:
+                y = curve[col].where(curve_shown) if col == "vB_dir_deg" else curve[col]
+                ax.plot(curve["t_s"], y, "-", color="tab:red", lw=1.2, label="model (fitted)")
+            else:
+                ax.plot(t, table[f"{col}_model"], "-", color="tab:red", lw=1.2,
+                        label="model (fitted)")
             ax.set_ylabel(label)
             ax.grid(alpha=0.3)
-        axes[0, 0].legend(loc="best", fontsize=8)
-        axes[-1, 0].set_xlabel("t (s)")
+            res.fill_between(t, -s, s, color="tab:blue", alpha=0.25, lw=0)
+            res.axhline(0.0, color="tab:red", lw=0.8)
+            res.plot(t, err, ".", color="tab:purple", ms=3)
+            res.set_ylabel("residual", fontsize=8)
+            res.grid(alpha=0.3)
+        axes[0].legend(loc="best", fontsize=8)
+        axes[-1].set_xlabel("t (s)")
         fig.suptitle(title)
         fig.tight_layout()
         path = Path(folder) / name

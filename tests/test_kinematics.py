@@ -275,3 +275,35 @@ def test_theta_sigma_covers_a_slow_error_the_tracker_sigma_misses(run640):
     assert before > 1.8 and 0.6 < after < 1.4, (before, after)
     ratio = np.nanmedian(k["omega_rad_s_sigma"] / plain["omega_rad_s_sigma"])
     assert ratio < 1.5, ratio
+
+
+def _drawn_tracks(rng: np.random.Generator, n: int = 90, sigma_mm: float = 0.05,
+                  v_mm_s: tuple[float, float] = (10.0, -20.0)) -> pd.DataFrame:
+    """A, C still and B gliding at a constant velocity, each point with Gaussian noise
+    of ``sigma_mm`` per axis: tracks drawn as numbers, no video."""
+    t = np.arange(n) / 30.0
+    pts = {"A": np.zeros((n, 2)), "C": np.tile([160.0, 0.0], (n, 1)),
+           "B": np.array([50.0, 40.0]) + np.outer(t, v_mm_s)}
+    table = {"frame": np.arange(n), "t_s": t}
+    for m, xy in pts.items():
+        noisy = xy + rng.normal(0.0, sigma_mm, xy.shape)
+        table |= {f"{m}_x_mm": noisy[:, 0], f"{m}_y_mm": noisy[:, 1],
+                  f"{m}_sigma_mm": np.full(n, sigma_mm)}
+    return pd.DataFrame(table)
+
+
+def test_the_direction_sigma_is_the_spread_of_the_direction_over_repeats():
+    """The σ of v_B's direction against the scatter of 60 noisy copies of one motion
+    (a second method: no propagation, only the spread of what was measured)."""
+    rng = np.random.default_rng(7)
+    runs = [measure_kinematics(_drawn_tracks(rng), window_s=0.5)[0] for _ in range(60)]
+    middle = slice(30, 60)
+    directions = np.array([r["vB_dir_deg"].to_numpy()[middle] for r in runs])
+    reported = np.array([r["vB_dir_deg_sigma"].to_numpy()[middle] for r in runs])
+    true = np.degrees(np.arctan2(-20.0, 10.0))
+    assert abs(np.mean(directions) - true) < 0.05
+    ratio = np.median(reported) / np.std(directions)
+    assert 0.7 < ratio < 1.5, ratio
+    speed_ratio = (np.median([r["vB_mm_s_sigma"].to_numpy()[middle] for r in runs])
+                   / np.std([r["vB_mm_s"].to_numpy()[middle] for r in runs]))
+    assert 0.7 < speed_ratio < 1.5, speed_ratio

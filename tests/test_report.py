@@ -71,3 +71,31 @@ def test_fit_with_rerun_records_the_residual_before_and_after(run, tmp_path):
 def test_view_of_a_folder_that_is_not_a_run(tmp_path, capsys):
     assert main(["view", str(tmp_path)]) == 1
     assert "no tracks.csv" in capsys.readouterr().err
+
+
+def test_the_compare_figures_model_curve_steps_at_the_drive_instants():
+    """ω of the spool model jumps at the drive's start and stop: the curve the figures
+    draw holds a point either side of each (0 before, the moving value after) and NaN
+    on it, so no ramp joins one frame to the next."""
+    from cranktrack.loop.compare import model_curve
+    from cranktrack.models.spool import SpoolDrive
+
+    drive = SpoolDrive()
+    t = np.arange(75) / 30.0
+    curve = model_curve(drive, t)
+    assert set(np.round(t, 12)) <= set(np.round(curve["t_s"], 12))
+    omega = dict(zip(curve["t_s"], curve["omega_rad_s"], strict=True))
+    start, stop = drive.start_s, drive.stop_s
+    assert omega[start - 1e-9] == 0.0 and omega[start + 1e-9] < -0.1
+    assert np.isnan(omega[start]) and np.isnan(omega[stop])
+    assert omega[stop - 1e-9] < -0.1 and omega[stop + 1e-9] == 0.0
+
+
+def test_the_direction_of_b_is_drawn_only_where_b_moves():
+    from cranktrack.report.plots import _direction_shown
+
+    table = pd.DataFrame({"vB_mm_s_measured": [0.02, 0.05, 20.0, 30.0, 1.0],
+                          "vB_mm_s_measured_sigma": [0.005, 0.05, 0.4, 0.4, 0.1]})
+    rows, _ = _direction_shown(table, None)
+    # Above 3σ but below 2 % of the 30 mm/s peak; below 3σ; moving; moving; 10σ and 3 %.
+    assert rows.tolist() == [False, False, True, True, True]
