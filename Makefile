@@ -6,7 +6,11 @@
 PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
-PIP    := $(BIN)/python -m pip --disable-pip-version-check --quiet
+# setuptools warns on every editable install that a folder named like the package may
+# shadow it. Here the checkout *is* the package, so such a folder holds the same code;
+# the block would only hide the demo's output, so that one warning is silenced.
+PIP    := PYTHONWARNINGS="ignore:Editable installation" $(BIN)/python -m pip \
+          --disable-pip-version-check --quiet
 
 .PHONY: demo test test-slow lint clean
 
