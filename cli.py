@@ -260,15 +260,16 @@ def cmd_view(args: argparse.Namespace) -> int:
 
 
 def _record(run: Path, spawn: bool, path: Path | None = None) -> Path:
+    """Write the run's recording; where --spawn cannot open a viewer, say so in one
+    warning and go on (the file is written)."""
+    from .errors import ViewerUnavailableError
     from .pipeline import record_run
 
     try:
         return record_run(run, spawn=spawn, path=path)
-    except (RuntimeError, OSError) as e:
-        if spawn:
-            raise CranktrackError(f"could not start the Rerun viewer here ({e}); drop --spawn "
-                                  "and open the .rrd file on a machine with a display") from None
-        raise
+    except ViewerUnavailableError as e:
+        _print_warnings([str(e)])
+        return Path(e.path)
 
 
 def _roi(xywh: tuple[int, int, int, int] | None):
@@ -335,7 +336,7 @@ def cmd_track(args: argparse.Namespace) -> int:
         spawn = args.rerun == "spawn"
         target = None if spawn or args.rerun == "RUN/run.rrd" else Path(args.rerun)
         rrd = _record(run.folder, spawn, target)
-        print(f"wrote {rrd}" + (" and opened the viewer" if spawn else ""))
+        print(f"wrote {rrd}")
     _print_warnings(run.warnings)
     found = ", ".join(f"{m} {100 * run.tracks[m + '_ok'].mean():.0f}%"
                       for m in [c[:-3] for c in run.tracks.columns if c.endswith("_ok")])
@@ -343,8 +344,7 @@ def cmd_track(args: argparse.Namespace) -> int:
     if run.calibration is None:
         print("no --known-length or --calibration given: tracks are in pixels only, "
               "no kinematics")
-    for f in run.files.values():
-        print(f"wrote {f}")
+    print(f"wrote {', '.join(f.name for f in run.files.values())} in {run.folder}")
     return 0
 
 
@@ -403,7 +403,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
     print()
     print(f"outputs: {out}")
     print(f"  scene: {files.video.name}, {files.truth.name}, {files.scene.name} in {files.folder}")
-    print(f"  run:   {', '.join(p.name for p in [*run.files.values(), *plots])} in {run.folder}")
+    names = dict.fromkeys(p.name for p in [*run.files.values(), *plots])  # once each, in order
+    print(f"  run:   {', '.join(names)} in {run.folder}")
     print(f"  loop:  {run2.folder / 'fit' / 'report.md'} (and fit/ in each run)")
     print(f"next: cranktrack view {run.folder}  (the recording, in the Rerun viewer)")
     hint = _path_hint()

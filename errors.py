@@ -28,3 +28,14 @@ class RunInterrupted(KeyboardInterrupt):
         super().__init__(f"interrupted in {folder}")
         self.folder = folder
         self.resumable = resumable
+
+
+class ViewerUnavailableError(CranktrackError):
+    """The Rerun viewer could not be opened (no viewer executable, no display) after the
+    recording at ``path`` was written in full: a warning for the CLI, not a failure."""
+
+    def __init__(self, path: str) -> None:
+        super().__init__(f"the Rerun viewer could not start here (no viewer or no display); "
+                         f"{path} is written: open it with `rerun {path}` on a machine with a "
+                         "display")
+        self.path = path

@@ -38,6 +38,7 @@ from .run_folder import (
     FIT_REPORT_JSON,
     FIT_TABLE,
     KINEMATICS,
+    KINEMATICS_FIGURE,
     RECORDING,
     RUN_INFO,
     TRACKER_STATE,
@@ -297,6 +298,8 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
     from .report.summary import write_report  # matplotlib: loaded once the video is read
 
     files["report"] = write_report(folder)
+    if (folder / KINEMATICS_FIGURE).is_file():
+        files["figure"] = folder / KINEMATICS_FIGURE
     record_step(folder, "track", [n for n in (TRACKS, KINEMATICS) if (folder / n).exists()],
                 video=video)
     return RunResult(folder, tracks, kinematics, cal, files, warnings)

@@ -29,6 +29,8 @@ import pandas as pd
 import rerun as rr
 import rerun.blueprint as rrb
 
+from ..errors import ViewerUnavailableError
+
 MARKER_COLOURS = {"A": (40, 170, 70), "B": (220, 40, 45), "C": (40, 80, 220)}
 MODEL_COLOUR = (255, 200, 0)
 PLOTS = (("theta", "theta_deg", "θ (deg)"), ("omega", "omega_rad_s", "ω (rad/s)"),
@@ -88,14 +90,19 @@ def write_recording(
         The model's markers (``"A"``, ``"B"``, ``"C"``) in image pixels,
         row-aligned with ``tracks``.
     spawn : bool
-        Also open a live viewer.
+        Also open a live viewer. Where none can start, the file is still written in
+        full and then :class:`~cranktrack.errors.ViewerUnavailableError` is raised.
     fit : DataFrame, optional
         ``fit/fit.csv`` of ``cranktrack fit`` (residuals before and after).
     """
     out = Path(path)
     rec = rr.RecordingStream("cranktrack", recording_id=out.stem)
+    viewer = spawn
     if spawn:
-        rec.spawn(default_blueprint=blueprint())
+        try:
+            rec.spawn(default_blueprint=blueprint())
+        except (RuntimeError, OSError):  # headless, or no viewer on PATH: the file still goes
+            viewer = False
     rec.save(out, default_blueprint=blueprint())
     t = tracks["t_s"].to_numpy(float)
     if video is not None and Path(video).suffix.lower() in (".mp4", ".mov", ".m4v"):
@@ -143,6 +150,8 @@ def write_recording(
                      fit[f"residual_{when}_deg"].to_numpy(float))
     rec.flush()
     rec.disconnect()
+    if spawn and not viewer:
+        raise ViewerUnavailableError(str(out))
     return out
 
 

@@ -1,5 +1,9 @@
 """The Rerun recording and the run report of a small render, read back."""
 
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -99,3 +103,15 @@ def test_the_direction_of_b_is_drawn_only_where_b_moves():
     rows, _ = _direction_shown(table, None)
     # Above 3σ but below 2 % of the 30 mm/s peak; below 3σ; moving; moving; 10σ and 3 %.
     assert rows.tolist() == [False, False, True, True, True]
+
+
+@pytest.mark.skipif(bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")),
+                    reason="a display could open a viewer; this is the headless case")
+def test_spawn_without_a_display_is_one_warning_and_the_recording_is_written(run):
+    p = subprocess.run([sys.executable, "-m", "cranktrack.cli", "view", str(run), "--spawn"],
+                       capture_output=True, text=True, timeout=120,
+                       env={**os.environ, "PATH": "/usr/bin:/bin"})
+    assert p.returncode == 0, p.stderr
+    lines = [ln for ln in p.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("warning: the Rerun viewer could not start")
+    assert read_times(run / "run.rrd", "/video/markers/B").size > 0
