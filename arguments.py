@@ -328,6 +328,11 @@ def _demo_command(sub: argparse._SubParsersAction) -> None:
                    help="return-spring ring of the second, undeclared-effect scene, Hz (2.5)")
 
 
+def _add_quiet(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress bars (they are shown only on a terminal anyway)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="cranktrack",
@@ -344,4 +349,6 @@ def build_parser() -> argparse.ArgumentParser:
     _batch_command(sub)
     _view_command(sub)
     _demo_command(sub)
+    for name in ("synth", "track", "fit", "batch", "demo"):  # the commands that show progress
+        _add_quiet(sub.choices[name])
     return parser

@@ -83,13 +83,15 @@ def run_batch(
     jobs: int | None = None,
     scheduler: str | object | None = None,
     on_done: Callable[[dict], None] | None = None,
+    on_start: Callable[[int], None] | None = None,
     resume: bool = False,
 ) -> pd.DataFrame:
     """Process every video matching ``pattern``; write and return ``summary.csv``.
 
     ``scheduler`` is a Dask scheduler address (``tcp://host:8786``) or a
     ``distributed.Client``; without it, ``jobs`` local processes (default:
-    all cores). ``on_done(row)`` is called as each video finishes.
+    all cores). ``on_start(n)`` is called with the number of videos to do, ``on_done(row)``
+    as each video finishes.
 
     Ctrl-C writes the summary of the videos that finished (the others are rows
     with status ``interrupted``) and raises :class:`RunInterrupted`. ``resume``
@@ -104,6 +106,8 @@ def run_batch(
     rows = _finished(out / SUMMARY, {t[0] for t in tasks}) if resume else []
     done = {r["video"] for r in rows}
     tasks = [t for t in tasks if t[0] not in done]
+    if on_start:
+        on_start(len(tasks))
     try:
         _run_tasks(tasks, rows, jobs, scheduler, on_done)
     except KeyboardInterrupt as e:

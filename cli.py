@@ -67,8 +67,12 @@ def parse_effects(items: list[str] | None) -> dict[str, float]:
     return check_effects(parse_numbers(items, EFFECTS, "--effect", "a known effect"))
 
 
+#: Set from --quiet by :func:`main`: the one switch the progress bars read.
+_QUIET = False
+
+
 def _show_progress() -> bool:
-    return sys.stderr.isatty() and not os.environ.get("CI")
+    return sys.stderr.isatty() and not os.environ.get("CI") and not _QUIET
 
 
 @contextmanager
@@ -242,7 +246,8 @@ def _track(args: argparse.Namespace, video: Path, out: Path):
                          window_s=args.window_s,
                          fill_gaps_frames=getattr(args, "fill_gaps", 0), calibration=plane,
                          resume=getattr(args, "resume", False), on_start=start,
-                         on_frame=lambda i: bar.update(1))
+                         on_frame=lambda i: bar.update(1),
+                         on_stage=lambda stage: bar.set_description_str(f"track: {stage}"))
 
 
 def _print_warnings(warnings: Sequence[str]) -> None:
@@ -579,12 +584,18 @@ def cmd_batch(args: argparse.Namespace) -> int:
 
     known = parse_known_length(args.known_length) if args.known_length else None
 
-    def done(row: dict) -> None:
-        state = "ok" if row["status"] == "ok" else f"{row['status']}: {row['message']}"
-        print(f"{Path(row['video']).name}: {state}", flush=True)
+    with _progress("batch", unit="video") as bar:
+        def start(n: int) -> None:
+            bar.total = n
+            bar.refresh()
 
-    summary = run_batch(args.pattern, args.out, known, args.compare, args.jobs, args.scheduler,
-                        on_done=done, resume=args.resume)
+        def done(row: dict) -> None:
+            state = "ok" if row["status"] == "ok" else f"{row['status']}: {row['message']}"
+            bar.write(f"{Path(row['video']).name}: {state}", file=sys.stdout)
+            bar.update(1)
+
+        summary = run_batch(args.pattern, args.out, known, args.compare, args.jobs,
+                            args.scheduler, on_done=done, resume=args.resume, on_start=start)
     failed = int((summary["status"] != "ok").sum())
     print(f"{len(summary) - failed} of {len(summary)} videos done; summary in "
           f"{Path(args.out) / 'summary.csv'}")
@@ -602,7 +613,9 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``cranktrack`` console script."""
+    global _QUIET
     args = build_parser().parse_args(argv)
+    _QUIET = bool(getattr(args, "quiet", False))
     key = f"calibrate {args.what}" if args.command == "calibrate" else args.command
     func = COMMANDS[key]
     try:

@@ -142,6 +142,7 @@ def track_run(
     on_frame: Callable[[int], None] | None = None,
     span: Span | None = None,
     roi: Roi | None = None,
+    on_stage: Callable[[str], None] | None = None,
 ) -> RunResult:
     """Track ``video`` into ``out_dir`` (only the frames within ``span``, and only the
     part of each frame within ``roi``, if given).
@@ -158,7 +159,8 @@ def track_run(
     ``resume`` continues an interrupted run in ``out_dir`` (Ctrl-C leaves
     ``tracks.csv`` up to the last finished frame and the tracker's state in
     ``.tracker_state.pkl``; the resumed result equals an uninterrupted run).
-    ``on_start(expected_frames)`` and ``on_frame(index)`` report progress.
+    ``on_start(expected_frames)`` and ``on_frame(index)`` report progress, and
+    ``on_stage(name)`` each step after the frames (``"kinematics"``, ``"report"``).
     """
     source = open_frames(video, fps=fps)
     _check_before_tracking(source, specs, known_length, calibration, window_s)
@@ -169,7 +171,7 @@ def track_run(
         try:
             result = _track_into(folder, source, video, known_length, specs, window_s,
                                  fill_gaps_frames, calibration, resume, on_start, on_frame,
-                                 span, roi)
+                                 span, roi, on_stage or (lambda stage: None))
         except KeyboardInterrupt as e:
             # The tracker's state stays until the whole run is written, so a run stopped
             # in any step after its first frame resumes; before it, there is nothing to.
@@ -216,7 +218,8 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
                 calibration: PlaneCalibration | None, resume: bool,
                 on_start: Callable[[int | None], None] | None,
                 on_frame: Callable[[int], None] | None, span: Span | None = None,
-                roi: Roi | None = None) -> RunResult:
+                roi: Roi | None = None,
+                on_stage: Callable[[str], None] = lambda stage: None) -> RunResult:
     """:func:`track_run`'s work, in a folder it holds."""
     if on_start:
         on_start(source.expected_frames)
@@ -284,6 +287,7 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
         tracks = add_plane_coordinates(tracks, cal, names)
         files["tracks"] = write_csv_atomic(folder / TRACKS, tracks)
         if {"A", "B", "C"} <= set(names):
+            on_stage("kinematics")
             kinematics, info = measure_kinematics(tracks, window_s=window_s,
                                                   scale_sigma=cal.scale_sigma)
             warnings += _link_warnings(info.links)
@@ -295,6 +299,7 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
         run_info["kinematics"] = info.to_dict()
         run_info["warnings"] = warnings
         files["run"] = write_json_atomic(folder / RUN_INFO, run_info)
+    on_stage("report")
     from .report.summary import write_report  # matplotlib: loaded once the video is read
 
     files["report"] = write_report(folder)

@@ -136,3 +136,44 @@ def test_impossible_stroke_is_refused(tmp_path):
 def test_bad_option_values_exit_2(bad, tmp_path):
     p = _run("synth", "spool", "--out", str(tmp_path), *bad)
     assert p.returncode == 2 and "Traceback" not in p.stderr
+
+
+def _on_a_terminal(*args: str) -> str:
+    """What a command writes to a terminal (a pseudo-terminal here), CI variable unset."""
+    import fcntl
+    import os
+    import pty
+    import struct
+    import termios
+
+    master, slave = pty.openpty()
+    # A new pseudo-terminal is 0 columns wide, and tqdm draws a bar of the terminal's width.
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 30, 100, 0, 0))
+    env = {k: v for k, v in os.environ.items() if k != "CI"}
+    p = subprocess.Popen([sys.executable, "-m", "cranktrack.cli", *args], stdin=slave,
+                         stdout=slave, stderr=slave, env=env, close_fds=True)
+    os.close(slave)
+    chunks = []
+    while True:
+        try:
+            data = os.read(master, 4096)
+        except OSError:  # the other end closed: the process is done
+            break
+        if not data:
+            break
+        chunks.append(data)
+    os.close(master)
+    assert p.wait(timeout=120) == 0
+    return b"".join(chunks).decode(errors="replace")
+
+
+def test_track_shows_progress_on_a_terminal_and_none_with_quiet(tmp_path):
+    assert main(["synth", "spool", "--out", str(tmp_path / "s"), "--size", "320x240",
+                 "--seconds", "1", "--noise", "0", "--quiet"]) == 0
+    video = str(tmp_path / "s" / "video.mp4")
+    shown = _on_a_terminal("track", video, "--out", str(tmp_path / "r1"), "--known-length",
+                           "A-C=160.8")
+    # The frames, then the steps after them on the same bar.
+    assert "/30 [" in shown and "track: kinematics" in shown and "track: report" in shown
+    quiet = _on_a_terminal("track", video, "--out", str(tmp_path / "r2"), "--quiet")
+    assert "/30 [" not in quiet and "track:" not in quiet and "wrote" in quiet
