@@ -614,12 +614,11 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``cranktrack`` console script."""
     global _QUIET
-    args = build_parser().parse_args(argv)
-    _QUIET = bool(getattr(args, "quiet", False))
-    key = f"calibrate {args.what}" if args.command == "calibrate" else args.command
-    func = COMMANDS[key]
     try:
-        return func(args)
+        args = build_parser().parse_args(argv)
+        _QUIET = bool(getattr(args, "quiet", False))
+        key = f"calibrate {args.what}" if args.command == "calibrate" else args.command
+        return COMMANDS[key](args)
     except CranktrackError as e:
         _print_warnings(e.warnings)
         print(f"cranktrack: error: {e}", file=sys.stderr)

@@ -398,3 +398,23 @@ def test_results_made_from_an_earlier_table_are_called_out_of_date(small_h264, t
     os.utime(video, ns=(0, 0))
     assert main(["view", str(run)]) == 0
     assert f"the video {video.resolve()} has changed or gone" in capsys.readouterr().err
+
+
+def test_ctrl_c_while_the_command_line_loads_is_one_sentence(monkeypatch, capsys):
+    """A Ctrl-C while numpy and the rest load (the first ~0.3 s), as the console script
+    runs it: bench/resume.py met a traceback there before."""
+    import builtins
+
+    import cranktrack.__main__ as entry
+
+    real = builtins.__import__
+
+    def interrupted(name, *args, **kwargs):
+        if name == "cli":
+            raise KeyboardInterrupt
+        return real(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", interrupted)
+    assert entry.console() == 130
+    err = capsys.readouterr().err.strip()
+    assert err == "cranktrack: interrupted while starting; nothing was written"
