@@ -17,12 +17,17 @@ truth.csv. Each is run ``--rounds`` times (3) and the fastest run kept, to damp
 the noise of a shared 2-core machine; the ratio of each round (decode, then
 track, back to back) is printed too, with their median.
 
-    .venv/bin/python bench/speed.py [--frames 600] [--rounds 3]
+First it prints the start-up: a fresh interpreter to the first decoded frame, as
+``cranktrack track`` imports its way there and with PyAV alone, and the heaviest
+imports under ``cranktrack.pipeline`` from ``python -X importtime``.
+
+    .venv/bin/python bench/speed.py [--frames 600] [--rounds 3] [--startup-only]
 """
 
 from __future__ import annotations
 
 import argparse
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -100,15 +105,63 @@ def rms_px(tracks: pd.DataFrame, truth: pd.DataFrame) -> str:
     return ", ".join(parts)
 
 
+FIRST_FRAME = {
+    "cranktrack": "import cranktrack.cli, cranktrack.pipeline\n"
+                  "from cranktrack.tracker.video import open_frames\n"
+                  "next(iter(open_frames({video!r}).frames()))",
+    "PyAV alone": "import av\n"
+                  "c = av.open({video!r})\n"
+                  "next(c.decode(video=0)).to_ndarray(format='rgb24')",
+}
+
+
+def _wall(code: str) -> float:
+    """Wall time (s) of a fresh interpreter running ``code``, best of 3."""
+    times = []
+    for _ in range(3):
+        t = time.perf_counter()
+        subprocess.run([sys.executable, "-c", code], check=True)
+        times.append(time.perf_counter() - t)
+    return min(times)
+
+
+def startup(video: Path) -> None:
+    """Start-up: a fresh interpreter to the first decoded frame, cranktrack's way (its
+    command line and track pipeline imported, as ``cranktrack track`` does) and PyAV's
+    alone; and ``python -X importtime``'s heaviest imports under cranktrack.pipeline."""
+    for name, code in FIRST_FRAME.items():
+        print(f"start-up to the first decoded frame, {name}: "
+              f"{_wall(code.format(video=str(video))):.2f} s", flush=True)
+    print("  (target for cranktrack: ≤ 0.3 s)")
+    r = subprocess.run([sys.executable, "-X", "importtime", "-c", "import cranktrack.pipeline"],
+                       capture_output=True, text=True, check=True)
+    rows = []
+    for line in r.stderr.splitlines():
+        parts = line.split("|")
+        if len(parts) == 3 and parts[1].strip().isdigit():
+            name = parts[2].rstrip()
+            depth = (len(name) - len(name.lstrip())) // 2
+            rows.append((int(parts[1]) / 1e6, depth, name.strip()))
+    total = max(r[0] for r in rows)
+    top = sorted((r for r in rows if r[1] == 1), reverse=True)[:6]
+    print(f"import cranktrack.pipeline: {total:.2f} s cumulative; heaviest direct imports: "
+          + ", ".join(f"{n} {t:.2f} s" for t, _, n in top))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--frames", type=int, default=600)
     ap.add_argument("--rounds", type=int, default=3,
                     help="timing rounds; each measures decode-only then tracking")
+    ap.add_argument("--startup-only", action="store_true",
+                    help="measure the start-up only, not the tracking speed")
     args = ap.parse_args()
     settings = RenderSettings(size=(1920, 1080), fps=30.0, seconds=args.frames / 30.0,
                               noise_dn=2.5, seed=5)
     files = scene(f"speed_1080p_{args.frames}", settings)
+    startup(files.video)
+    if args.startup_only:
+        return
     truth = pd.read_csv(files.truth)
     best: dict[str, float] = {}
     tables: dict[str, pd.DataFrame] = {}
