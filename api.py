@@ -18,6 +18,7 @@ import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -25,6 +26,9 @@ import pandas as pd
 from .errors import CranktrackError
 from .pipeline import RunResult, fit_run, track_run
 from .run_folder import FIT_DIR, FIT_TABLE, KINEMATICS, TRACKS, run_folder
+
+if TYPE_CHECKING:
+    from .loop.result import LoopResult
 
 __all__ = ["Fit", "RunResult", "fit", "open_run", "track"]
 
@@ -71,9 +75,14 @@ def track(video: str | os.PathLike, markers: Mapping[str, str | float] | None = 
         plane = load_calibration(calibration)
     if known_length is not None:
         a, b, mm = known_length
+        try:
+            mm = float(mm)
+        except (TypeError, ValueError):
+            raise CranktrackError(f"known_length {a}-{b} = {mm!r} is not a number of mm"
+                                  ) from None
         if not (np.isfinite(mm) and mm > 0):
             raise CranktrackError(f"known_length {a}-{b} = {mm} mm is not a positive length")
-        known_length = (str(a), str(b), float(mm))
+        known_length = (str(a), str(b), mm)
     folder = Path(out) if out is not None else video.with_name(f"{video.stem}_run")
     return track_run(video, folder, known_length, _specs(markers), window_s=window_s,
                      fill_gaps_frames=fill_gaps, calibration=plane, span=span,
@@ -101,7 +110,7 @@ class Fit:
     ``table`` has t (s), measured θ, the base and final models and both residuals (deg)
     per fitted frame; ``files`` what was written in the run's ``fit/`` folder."""
 
-    loop: object
+    loop: LoopResult
     table: pd.DataFrame
     files: list[Path] = field(default_factory=list)
 
@@ -155,8 +164,12 @@ def fit(run: RunResult | str | os.PathLike, model: str = "spool",
     for k, v in known.items():
         if k not in names:
             raise CranktrackError(f"{k!r} is not a {model} parameter ({', '.join(names)})")
-        if not np.isfinite(v):
-            raise CranktrackError(f"known {k} = {v} is not a finite number")
+        try:
+            finite = np.isfinite(float(v))
+        except (TypeError, ValueError):
+            finite = False
+        if not finite:
+            raise CranktrackError(f"known {k} = {v!r} is not a finite number")
     rf = run_folder(folder)
     result, files = fit_run(rf.path, model, {k: float(v) for k, v in known.items()})
     table = pd.read_csv(rf.path / FIT_DIR / FIT_TABLE)

@@ -12,6 +12,7 @@ from cranktrack.errors import CranktrackError
     ("pendulum", {}, "cannot be fitted yet"),
     ("spool", {"L9_mm": 1.0}, "is not a spool parameter"),
     ("spool", {"L1_mm": float("inf")}, "not a finite number"),
+    ("spool", {"L1_mm": "long"}, "not a finite number"),
 ])
 def test_fit_refuses_what_it_cannot_use_before_reading_the_run(tmp_path, model, known, words):
     with pytest.raises(CranktrackError, match=words):
@@ -24,6 +25,8 @@ def test_track_refuses_a_missing_video_and_a_bad_length_without_making_a_folder(
         ct.track(tmp_path / "none.mp4", out=tmp_path / "run")
     with pytest.raises(CranktrackError, match="not a positive length"):
         ct.track(tmp_path / "none.mp4", known_length=("A", "C", -3), out=tmp_path / "run")
+    with pytest.raises(CranktrackError, match="not a number of mm"):
+        ct.track(tmp_path / "none.mp4", known_length=("A", "C", "far"), out=tmp_path / "run")
     assert not (tmp_path / "run").exists()
 
 
