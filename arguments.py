@@ -111,11 +111,15 @@ def _add_scene_options(p: argparse.ArgumentParser) -> None:
                    help="spool speed, mm/s (14.0, Table 2.2)")
 
 
+def _add_window_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--window-s", type=_positive, default=None,
+                   help="differentiator window, s (default: chosen from the data)")
+
+
 def _add_track_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--known-length", metavar="A-C=MM",
                    help="a constant marker distance that sets the scale, e.g. A-C=160.8")
-    p.add_argument("--window-s", type=_positive, default=None,
-                   help="differentiator window, s (default: chosen from the data)")
+    _add_window_option(p)
 
 
 def _synth_command(sub: argparse._SubParsersAction) -> None:
@@ -322,8 +326,7 @@ def _demo_command(sub: argparse._SubParsersAction) -> None:
                                   "run)")
     _add_render_options(p)
     _add_scene_options(p)
-    p.add_argument("--window-s", type=_positive, default=None,
-                   help="differentiator window, s (default: chosen from the data)")
+    _add_window_option(p)
     p.add_argument("--demo-ring-hz", type=_positive, default=2.5,
                    help="return-spring ring of the second, undeclared-effect scene, Hz (2.5)")
 

@@ -426,10 +426,9 @@ def _path_hint() -> str:
     if here is None or here.name != "cranktrack" or (found and Path(found).resolve() == here):
         return ""
     activate = here.parent / "activate"
-    shown = os.path.relpath(activate) if activate.is_file() else None
-    if shown:
-        return (f"cranktrack is not on your PATH: run `source {shown}` first, or type "
-                f"{os.path.relpath(here)} instead of cranktrack")
+    if activate.is_file():
+        return (f"cranktrack is not on your PATH: run `source {os.path.relpath(activate)}` "
+                f"first, or type {os.path.relpath(here)} instead of cranktrack")
     return f"cranktrack is not on your PATH: type {here} instead of cranktrack"
 
 

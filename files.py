@@ -88,13 +88,12 @@ def replace_folder(path: str | os.PathLike, stamp: str) -> Path:
     folder of the user's that happens to have the same name is never deleted.
     """
     p = Path(path)
-    if p.exists() and not (p / stamp).is_file():
-        if p.is_dir() and not any(p.iterdir()):
-            pass
-        else:
-            raise CranktrackError(f"{p} exists and was not made by cranktrack; move it away or "
-                                  "give another folder with --out")
-    elif p.exists():
+    ours = (p / stamp).is_file()
+    empty = p.is_dir() and not any(p.iterdir())
+    if p.exists() and not (ours or empty):
+        raise CranktrackError(f"{p} exists and was not made by cranktrack; move it away or "
+                              "give another folder with --out")
+    if ours:
         try:
             shutil.rmtree(p)
         except OSError as e:
