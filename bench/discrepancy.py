@@ -333,7 +333,16 @@ def open_world(nulls: int) -> None:
     cols = [c for c in ("truth", "size", "named", "value", "true", "rel_err", "signature")
             if c in eff]
     print(eff[cols].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-    # Speed: the whole loop on a minute of θ (1800 frames, the drive in the middle).
+    loop_speed()
+
+
+def loop_speed() -> None:
+    """The whole loop's time on a minute of θ (1800 frames), spool and SMA beds, in memory
+    (same AR(1) noise as :func:`open_world`)."""
+    from cranktrack.synthetic.mechanism import SpoolBed, measured_table
+
+    sigma, rho = 0.02, 0.5
+    # The whole loop on a minute of θ (1800 frames, the drive in the middle).
     long_t = np.arange(1800) / FPS
     table = measured_table(SpoolBed(start_s=25.0, slack_mm=1.0).theta(long_t), long_t, sigma,
                            seed=0, correlation=rho)
@@ -415,11 +424,16 @@ def main_bench() -> None:
     ap.add_argument("--open-world", action="store_true",
                     help="only the loops on physics written apart from the fitter, in memory "
                     "(spool, dynamic and sma beds; about 6 min)")
+    ap.add_argument("--loop-speed", action="store_true",
+                    help="only the loop's time on a minute of θ, spool and SMA (about 30 s)")
     ap.add_argument("--sma-only", action="store_true",
                     help="only the SMA model's null renders and ladders (slow: ~2 min a fit)")
     args = ap.parse_args()
     if args.frame_only:
         frame_motion(args.seeds)
+        return
+    if args.loop_speed:
+        loop_speed()
         return
     if args.sma_only:
         sma_model(min(args.seeds, 5))

@@ -23,15 +23,14 @@ A_s/A_f = 55/70 °C, M_s/M_f = 50/25 °C.
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import pairwise
-from types import SimpleNamespace
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
-from scipy.integrate import ODEintWarning, odeint, solve_ivp
+from scipy.integrate import solve_ivp
 
 from ..errors import CranktrackError
 
@@ -151,6 +150,91 @@ class WireResponse:
         return self.generated_J - self.internal_J - self.latent_J - self.convected_J
 
 
+#: The longest step of ``simulate_wire(fast=True)``, s: a sixtieth of the wire's
+#: time constant (0.16 s for Table 4.2's wire); with the limit on T's change below,
+#: classical Runge–Kutta keeps ξ within 1e-5 of the adaptive solve (tests/test_heat.py).
+FAST_STEP_S = 2.5e-3
+#: ... and the most T may change in one step, K: a fiftieth of a transformation
+#: window, whose cosine the steps must follow.
+FAST_CHANGE_K = 0.3
+
+
+@njit(cache=True, nogil=True)
+def _latent_from(xi_start: float, heating: bool, lo: float, hi: float) -> float:
+    """The temperature (°C) where the active cosine branch (eqs. 4.3–4.6, between
+    ``lo`` and ``hi``) meets ξ at the piece's start: ξ follows the branch, and takes
+    latent heat, above it when heating and below it when cooling (min/max below)."""
+    return lo + (hi - lo) * math.acos(min(max(2.0 * xi_start - 1.0, -1.0), 1.0)) / math.pi
+
+
+@njit(cache=True, nogil=True)
+def _heat_rate(T: float, power_W: float, latent: bool, lo: float, hi: float,
+               wire: tuple[float, float, float, float, float]) -> tuple[float, float]:
+    """(T', K/s; convective loss, W) of eq. 4.2 under a constant heating power.
+
+    ``latent``: whether ξ is on the cosine branch between ``lo`` and ``hi``, where
+    it takes latent heat; ``wire`` = (hA W/K, T∞ °C, m kg, c_p J/(kg·K), Δh J/kg).
+    """
+    hA, T_amb, m, cp, dh = wire
+    x = min(max((T - lo) / (hi - lo), 0.0), 1.0)
+    slope = math.pi / (2.0 * (hi - lo)) * math.sin(math.pi * x) if latent else 0.0
+    loss = hA * (T - T_amb)
+    return (power_W - loss) / (m * (cp + dh * slope)), loss
+
+
+@njit(cache=True, nogil=True)
+def _rk4_step(T: float, conv: float, h: float, power_W: float, latent: bool, lo: float,
+              hi: float, wire: tuple[float, float, float, float, float]) -> tuple[float, float]:
+    k1, l1 = _heat_rate(T, power_W, latent, lo, hi, wire)
+    k2, l2 = _heat_rate(T + 0.5 * h * k1, power_W, latent, lo, hi, wire)
+    k3, l3 = _heat_rate(T + 0.5 * h * k2, power_W, latent, lo, hi, wire)
+    k4, l4 = _heat_rate(T + h * k3, power_W, latent, lo, hi, wire)
+    return (T + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4),
+            conv + h / 6.0 * (l1 + 2.0 * l2 + 2.0 * l3 + l4))
+
+
+@njit(cache=True, nogil=True)
+def _rk4(T0: float, conv0: float, start: float, times: NDArray, max_step: float,
+         max_change: float, power_W: float, xi_start: float, heating: bool, lo: float, hi: float,
+         wire: tuple[float, float, float, float, float]) -> tuple[NDArray, NDArray]:
+    """T (°C) and the convected energy (J) at ``times`` (s, increasing, after
+    ``start``), by classical Runge–Kutta in steps of at most ``max_step`` and short
+    enough that T changes by about ``max_change`` (K) at most.
+
+    Where ξ joins its branch the heat capacity jumps (several-fold in the middle of
+    a transformation), which would cost a fixed step its order: the step that
+    crosses that temperature is cut there, found by bisection.
+    """
+    T_out, conv_out = np.empty(times.size), np.empty(times.size)
+    T_join = _latent_from(xi_start, heating, lo, hi)
+    sign = 1.0 if heating else -1.0
+    latent = sign * (T0 - T_join) > 0.0
+    T, conv, now = T0, conv0, start
+    for i in range(times.size):
+        rate = abs(_heat_rate(T, power_W, latent, lo, hi, wire)[0])
+        span = times[i] - now
+        n = max(1, math.ceil(span / max_step - 1e-9), math.ceil(span * rate / max_change))
+        h = span / n
+        for _ in range(n):
+            T_new, conv_new = _rk4_step(T, conv, h, power_W, latent, lo, hi, wire)
+            if not latent and sign * (T_new - T_join) > 0.0:
+                short, long = 0.0, h
+                for _ in range(60):
+                    mid = 0.5 * (short + long)
+                    if sign * (_rk4_step(T, conv, mid, power_W, False, lo, hi, wire)[0]
+                               - T_join) > 0.0:
+                        long = mid
+                    else:
+                        short = mid
+                T, conv = _rk4_step(T, conv, long, power_W, False, lo, hi, wire)
+                latent = True
+                T_new, conv_new = _rk4_step(T, conv, h - long, power_W, True, lo, hi, wire)
+            T, conv = T_new, conv_new
+        now = times[i]
+        T_out[i], conv_out[i] = T, conv
+    return T_out, conv_out
+
+
 def simulate_wire(wire: SMAWire, current: CurrentSteps, t_s: ArrayLike,
                   T0_C: float | None = None, xi0: float = 1.0, rtol: float = 1e-9,
                   fast: bool = False) -> WireResponse:
@@ -170,7 +254,8 @@ def simulate_wire(wire: SMAWire, current: CurrentSteps, t_s: ArrayLike,
     rtol : float
         Relative tolerance of the integration (a fit may trade accuracy for speed).
     fast : bool
-        LSODA (odeint) instead of Dormand–Prince: for fits that simulate many times.
+        Classical Runge–Kutta in steps of ``FAST_STEP_S``, compiled, instead of
+        Dormand–Prince (``rtol`` then unused): for fits that simulate many times.
     """
     t = np.asarray(t_s, dtype=float)
     if t.ndim != 1 or t.size < 2 or np.any(np.diff(t) <= 0):
@@ -185,23 +270,13 @@ def simulate_wire(wire: SMAWire, current: CurrentSteps, t_s: ArrayLike,
     # min(ξ at the piece's start, heating curve) when warming, max(…, cooling
     # curve) when cooling. Integrating T alone avoids the chatter an ODE for ξ
     # with an on/off transformation switch would have.
-    def branch(T: float, xi_start: float, heating: bool) -> tuple[float, float]:
-        """(ξ, |dξ/dT|) on the active branch: eqs. 4.3–4.6 in scalar arithmetic (the
-        integrator calls this millions of times in a fit, where numpy's per-call cost
-        on one number was most of the time)."""
-        lo, hi = (w.As_C, w.Af_C) if heating else (w.Mf_C, w.Ms_C)
-        x = min(max((T - lo) / (hi - lo), 0.0), 1.0)
-        curve = 0.5 * (1.0 + math.cos(math.pi * x))
-        if (curve < xi_start) if heating else (curve > xi_start):
-            slope = math.pi / (2.0 * (hi - lo)) * math.sin(math.pi * x) if 0 < x < 1 else 0.0
-            return curve, slope
-        return xi_start, 0.0
+    constants = (hA, w.T_amb_C, m, w.cp_J_kgK, w.dh_J_kg)
 
-    def rhs(_t: float, y: NDArray, amps: float, xi_start: float, heating: bool) -> list[float]:
-        T = y[0]
-        loss = hA * (T - w.T_amb_C)
-        slope = branch(T, xi_start, heating)[1]
-        return [(amps**2 * w.R_ohm - loss) / (m * (w.cp_J_kgK + w.dh_J_kg * slope)), loss]
+    def rhs(_t: float, y: NDArray, power: float, xi_start: float, heating: bool,
+            lo: float, hi: float) -> list[float]:
+        T_join = _latent_from(xi_start, heating, lo, hi)
+        return list(_heat_rate(y[0], power, y[0] > T_join if heating else y[0] < T_join,
+                               lo, hi, constants))
 
     # Integrate between the current's switching instants, where the right-hand side jumps.
     edges = sorted({t[0], t[-1], *[s for s in current.times_s if t[0] < s < t[-1]]})
@@ -212,34 +287,28 @@ def simulate_wire(wire: SMAWire, current: CurrentSteps, t_s: ArrayLike,
     for a, b in pairwise(edges):
         amps = float(current(a))
         heating = amps**2 * w.R_ohm > hA * (T_now - w.T_amb_C)
+        lo, hi = (w.As_C, w.Af_C) if heating else (w.Mf_C, w.Ms_C)
+        args = (amps**2 * w.R_ohm, xi_now, heating, lo, hi)
         inside = (t > a) & (t <= b)
-        # LSODA rejects an output time a rounding error after the start (a grid's
-        # 1.4000000000000001 after a switch at 1.4): read such frames a hair later.
-        at = np.maximum(t[inside], a + 1e-9 * max(1.0, abs(a)))
+        at = t[inside]
         wanted = np.union1d(at, [b])  # b too: the next piece starts from it
         if fast:
-            # LSODA in Fortran: several times faster than RK45 with a Python right-hand side.
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", ODEintWarning)  # reported below instead
-                ys, info = odeint(rhs, [T_now, conv_now], np.concatenate([[a], wanted]),
-                                  args=(amps, xi_now, heating), tfirst=True, rtol=rtol,
-                                  atol=tol["atol"], full_output=True)
-            if info["message"] != "Integration successful.":
-                raise CranktrackError(f"the heat-transfer integration failed: {info['message']}")
-            sol = SimpleNamespace(y=ys[1:].T)
+            y = np.stack(_rk4(T_now, conv_now, a, wanted, FAST_STEP_S, FAST_CHANGE_K, *args,
+                              constants))
         else:
             sol = solve_ivp(rhs, (a, b), [T_now, conv_now], method="RK45", t_eval=wanted,
-                            args=(amps, xi_now, heating), **tol)
+                            args=args, **tol)
             if not sol.success:
                 raise CranktrackError(f"the heat-transfer integration failed: {sol.message}")
-        xi = (np.minimum(xi_now, w.xi_heating(sol.y[0])) if heating
-              else np.maximum(xi_now, w.xi_cooling(sol.y[0])))  # as branch(), vectorised
+            y = sol.y
+        xi = (np.minimum(xi_now, w.xi_heating(y[0])) if heating
+              else np.maximum(xi_now, w.xi_cooling(y[0])))  # as _heat_rate, vectorised
         pick = np.searchsorted(wanted, at)
-        T_out[inside], conv_out[inside] = sol.y[0][pick], sol.y[1][pick]
+        T_out[inside], conv_out[inside] = y[0][pick], y[1][pick]
         xi_out[inside] = xi[pick]
         gen_out[inside] = gen_now + amps**2 * w.R_ohm * (t[inside] - a)
         lat_out[inside] = lat_now + m * w.dh_J_kg * (xi_now - xi[pick])
-        T_now, conv_now = float(sol.y[0][-1]), float(sol.y[1][-1])
+        T_now, conv_now = float(y[0][-1]), float(y[1][-1])
         gen_now += amps**2 * w.R_ohm * (b - a)
         lat_now += m * w.dh_J_kg * (xi_now - xi[-1])
         xi_now = float(xi[-1])

@@ -33,6 +33,7 @@ from dataclasses import dataclass, field, replace
 from itertools import pairwise
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
@@ -145,41 +146,67 @@ def lagged(x: NDArray[np.float64], t: NDArray[np.float64], tau_s: float) -> NDAr
     return out
 
 
+def _constants(bed: SMABed) -> tuple[float, ...]:
+    """The bed as the plain floats :func:`_torque` reads."""
+    return (bed.L1, bed.L2, bed.bias_k_Nm_rad, bed.bias_rest_rad, bed.austenite_length_mm,
+            bed.recovery_strain, bed.wire_area_m2, 1.0 / bed.E_martensite_Pa,
+            1.0 / bed.E_austenite_Pa)
+
+
+@njit(cache=True, nogil=True)
+def _torque(theta: float, xi: float, bed: tuple[float, ...]) -> float:
+    """Bias spring minus wire about A, N·m: :meth:`SMABed.accel` without inertia and
+    damper, in plain floats (the integrator and the balance call it ~10⁵ times a fit)."""
+    L1, L2, k_b, theta_b, LA, eps, area, inv_EM, inv_EA = bed
+    L3 = math.sqrt(L1 * L1 + L2 * L2 - 2.0 * L1 * L2 * math.cos(theta))
+    stretch = L3 / (LA * (1.0 + eps * xi)) - 1.0
+    force = area * stretch / (xi * inv_EM + (1.0 - xi) * inv_EA) if stretch > 0 else 0.0
+    return k_b * (theta_b - theta) - force * 1e-3 * L1 * L2 * math.sin(theta) / L3
+
+
+@njit(cache=True, nogil=True)
+def _balance(xi: NDArray, lo: float, hi: float, bed: tuple[float, ...]
+             ) -> tuple[NDArray, NDArray]:
+    """θ (rad) where :func:`_torque` is zero for each ξ, by 45 halvings between a slack
+    wire (``lo``: the spring wins) and ``hi`` (the wire wins), and the torque's
+    stiffness there, −dτ/dθ (N·m/rad, central difference over 2 µrad)."""
+    theta, stiffness = np.empty(xi.size), np.empty(xi.size)
+    for i in range(xi.size):
+        a, b = lo, hi
+        for _ in range(45):  # 2.5 rad / 2⁴⁵: within 1e-13 rad
+            mid = 0.5 * (a + b)
+            if _torque(mid, xi[i], bed) > 0:  # the spring still wins: the balance is at a larger θ
+                a = mid
+            else:
+                b = mid
+        theta[i] = 0.5 * (a + b)
+        stiffness[i] = -(_torque(theta[i] + 1e-6, xi[i], bed)
+                         - _torque(theta[i] - 1e-6, xi[i], bed)) / 2e-6
+    return theta, stiffness
+
+
 def quasi_static_theta(bed: SMABed, xi: NDArray[np.float64],
                        t_s: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
     """θ (rad) where the torques balance, for each martensite fraction.
 
     The crank's inertia is left out (its own frequency against the stiff wire is
     hundreds of Hz): bisection between a slack wire (the spring wins) and θ0 + 0.3
-    rad (the wire wins), 60 halvings, on 257 values of ξ spanning those asked for.
+    rad (the wire wins), 45 halvings, on 257 values of ξ spanning those asked for.
     With the times ``t_s`` the damper's share is added to first order:
     δθ = −c·θ' / k, k the torque's stiffness in θ (a lag of c/k, a few ms, which is a
     tenth of a degree at full speed).
     """
     xi = np.asarray(xi, float)
-    k_b, theta_b = bed.bias_k_Nm_rad, bed.bias_rest_rad
     # The balance depends on ξ alone, so it is solved on a grid of ξ and read off
     # by interpolation: a fit asks for thousands of frames, all on one smooth curve
     # (257 nodes put the linear interpolation within 1e-4° of the solve).
     # Where ξ is constant the nodes coincide, and the interpolation gives their one balance.
     nodes = np.linspace(float(np.min(xi)), float(np.max(xi)), 257)
-
-    def torque(th: NDArray, x: NDArray) -> NDArray:
-        return k_b * (theta_b - th) - bed.wire_force_N(th, x) * bed.moment_arm_m(th)
-
-    lo = np.full(nodes.shape, 0.05)
-    hi = np.full(nodes.shape, np.radians(bed.theta0_deg) + 0.3)
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        up = torque(mid, nodes) > 0  # the spring still wins: the balance lies at a larger θ
-        lo = np.where(up, mid, lo)
-        hi = np.where(up, hi, mid)
-    on_nodes = 0.5 * (lo + hi)
+    on_nodes, stiff_nodes = _balance(nodes, 0.05, np.radians(bed.theta0_deg) + 0.3,
+                                     _constants(bed))
     theta = np.interp(xi, nodes, on_nodes)
     if t_s is None or bed.damping_Nms_rad == 0:
         return theta
-    h = 1e-6
-    stiff_nodes = -(torque(on_nodes + h, nodes) - torque(on_nodes - h, nodes)) / (2 * h)
     stiffness = np.interp(xi, nodes, stiff_nodes)
     rate = np.gradient(theta, np.asarray(t_s, float))
     return theta - bed.damping_Nms_rad * rate / np.maximum(stiffness, 1e-12)
@@ -188,18 +215,10 @@ def quasi_static_theta(bed: SMABed, xi: NDArray[np.float64],
 def _scalar_accel(bed: SMABed) -> Callable[[float, float, float], float]:
     """:meth:`SMABed.accel` for one state in plain floats: the integrator calls it
     hundreds of thousands of times, where numpy's per-call cost dominates."""
-    L1, L2 = bed.L1, bed.L2
-    k_b, theta_b, c, inertia = (bed.bias_k_Nm_rad, bed.bias_rest_rad, bed.damping_Nms_rad,
-                                bed.inertia_kg_m2)
-    LA, eps, area = bed.austenite_length_mm, bed.recovery_strain, bed.wire_area_m2
-    inv_EM, inv_EA = 1.0 / bed.E_martensite_Pa, 1.0 / bed.E_austenite_Pa
+    constants, c, inertia = _constants(bed), bed.damping_Nms_rad, bed.inertia_kg_m2
 
     def accel(theta: float, omega: float, xi: float) -> float:
-        L3 = math.sqrt(L1 * L1 + L2 * L2 - 2.0 * L1 * L2 * math.cos(theta))
-        stretch = L3 / (LA * (1.0 + eps * xi)) - 1.0
-        force = area * stretch / (xi * inv_EM + (1.0 - xi) * inv_EA) if stretch > 0 else 0.0
-        arm = 1e-3 * L1 * L2 * math.sin(theta) / L3
-        return (k_b * (theta_b - theta) - c * omega - force * arm) / inertia
+        return (_torque(theta, xi, constants) - c * omega) / inertia
 
     return accel
 
