@@ -89,6 +89,10 @@ def incompatibility(L1: float, L2: float, L3: ArrayLike) -> NDArray[np.object_]:
 
 
 def _raise_if_incompatible(L1: float, L2: float, L3: NDArray[np.float64]) -> None:
+    # The same tests as incompatibility(), in booleans first: fits call this
+    # hundreds of thousands of times, and the object array is only needed to name a fault.
+    if not np.any((L1 + L3 < L2) | (L2 + L3 < L1) | (L3 > L1 + L2)):
+        return
     kinds = incompatibility(L1, L2, L3)
     bad = np.flatnonzero(kinds.ravel() != None)  # noqa: E711 - elementwise on objects
     if bad.size:

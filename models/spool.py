@@ -105,8 +105,11 @@ def stretched_theta(drive: SpoolDrive, theta: NDArray[np.float64], stretch_mm: f
     L3_kin = l3_from_theta(theta, d.L1, d.L2)
     out = np.asarray(theta, float)
     for _ in range(30):
-        out = d.bed.theta(L3_kin - stretch_mm + stretch(out))
-    return out
+        new = d.bed.theta(L3_kin - stretch_mm + stretch(out))
+        if np.array_equal(new, out):  # a fixed point to the last bit: more steps change nothing
+            break
+        out = new
+    return new
 
 
 def crank_inertia(theta: NDArray[np.float64], dt_s: float, hz: float, zeta: float
