@@ -291,7 +291,11 @@ def _sweep_command(sub: argparse._SubParsersAction) -> None:
                    help="a map over (L1/L2, θ0) for --actuator; actuator-curve: the wire's "
                    "force against stroke (Fig. 2.14); max-work: work over start and final "
                    "temperature for --envelope (Figs. 2.18–2.21)")
-    p.add_argument("--actuator", default="rigid", choices=["rigid", "linear", "sma", "muscle"])
+    p.add_argument("--actuator", default="rigid", choices=["rigid", "linear", "sma", "muscle"],
+                   help="what pulls the wire for the (L1/L2, θ0) maps: rigid, a fixed 5 %% "
+                   "contraction (rocking angle only); sma, the 250 µm wire's actuator curve; "
+                   "linear, its straight-line fit; muscle, the same shape over a 13.75 %% "
+                   "stroke (default: rigid)")
     p.add_argument("--envelope", default="linear", choices=["linear", "nonlinear"],
                    help="stress–strain–temperature envelope for max-work: eq. 2.10 or "
                    "eqs. 2.6–2.7")

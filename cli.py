@@ -195,6 +195,8 @@ def cmd_thermal_id(args: argparse.Namespace) -> int:
           "for a single test; Δh needs a step that completes the contraction, past A_f). "
           "c_p and Δh are timed by the displacement (contraction start/end, thesis Fig. "
           "4.13); the thermocouple rows show what the thermocouple's lag does.")
+    for sentence in result.caveats():
+        print(f"note: {sentence}")
     if args.out:
         from .files import write_json_atomic
 

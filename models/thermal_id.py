@@ -181,6 +181,35 @@ class ThermalID:
     dh_thermocouple: Estimate
     tests: list[dict] = field(default_factory=list)
 
+    def caveats(self) -> list[str]:
+        """Sentences that say why a number in the table is off, where one is."""
+        out = []
+        cp, cp_d = self.cp_integral.value, self.cp_derivative.value
+        if np.isfinite(cp) and np.isfinite(cp_d) and cp_d > 1.15 * cp:
+            out.append(
+                f"c_p by the derivative method is {100 * (cp_d / cp - 1):+.0f} % against the "
+                "integral method: eq. 4.20 keeps the heating rate of the step's first "
+                "instant for the whole step, while convection takes more of the power as "
+                "the wire warms. The bias is −ln(1 − x)/x − 1, x being the share of the "
+                "power convection takes at A_s: large for steps that start far below A_s "
+                "or with a small current. Prefer the integral method.")
+        for key, timing in (("dh", "the contraction"), ("dh_thermocouple", "the thermocouple")):
+            e = getattr(self, key)
+            if e.n and e.value < 0:
+                out.append(
+                    f"Δh timed by {timing} is negative, which no wire does: eq. 4.25 "
+                    "subtracts c_p·(A_f − A_s) with that timing's own c_p, and this c_p is "
+                    "so large that it takes more than all the energy put in. Read it as "
+                    "'this timing cannot give Δh'.")
+        tc = self.cp_integral_thermocouple.value
+        if np.isfinite(cp) and np.isfinite(tc) and tc > 2 * cp:
+            out.append(
+                f"c_p timed by the thermocouple is {tc / cp:.1f}× the value timed by the "
+                "contraction: a thermocouple heavier than the wire lags it, so it crosses "
+                "A_s late and the step looks longer. Trust the contraction's timing "
+                "(thesis Fig. 4.13).")
+        return out
+
     def to_dict(self) -> dict:
         out = {"T_amb_C": self.T_amb_C, "tests": self.tests}
         for k in ("R_ohm", "h_W_m2K", "cp_integral", "cp_derivative", "dh",

@@ -103,6 +103,13 @@ def test_a_lagging_thermocouple_biases_cp_and_dh_as_table_4_3_saw():
     assert fast.cp_integral_thermocouple.value == pytest.approx(250.0, rel=0.15)
     assert slow.cp_integral_thermocouple.value > 4 * 250.0
     assert not slow.dh_thermocouple.value == pytest.approx(30000.0, rel=0.5)
+    # What the table cannot say, in words: the slow thermocouple's c_p and (when it
+    # comes out negative) its Δh; nothing about the thermocouple when it is fast.
+    slow_notes = " ".join(slow.caveats())
+    assert "c_p timed by the thermocouple is" in slow_notes
+    assert ("Δh timed by the thermocouple is negative" in slow_notes) \
+        == (slow.dh_thermocouple.value < 0)
+    assert "thermocouple" not in " ".join(fast.caveats())
 
 
 def test_thermal_id_command_and_its_errors(tmp_path, capsys):
