@@ -31,7 +31,9 @@ def _number(text: str, whole: bool, zero_ok: bool) -> float:
     except ValueError:
         raise argparse.ArgumentTypeError(
             f"{text!r} is not a {'whole ' if whole else ''}number") from None
-    if not (v >= 0 if zero_ok else v > 0):  # NaN fails both
+    if not whole and not np.isfinite(v):  # a whole number is finite, however long
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
+    if not (v >= 0 if zero_ok else v > 0):
         raise argparse.ArgumentTypeError(
             f"{text!r} must be {'0 or more' if zero_ok else 'positive'}")
     return v

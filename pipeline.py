@@ -103,6 +103,10 @@ def _version() -> str:
         return "unknown"
 
 
+#: The smallest frame side a marker and the ring around it can fit in, px.
+MIN_FRAME_PX = 16
+
+
 def _check_before_tracking(source: FrameSource, specs: tuple[MarkerSpec, ...],
                            known_length: tuple[str, str, float] | None,
                            calibration: PlaneCalibration | None,
@@ -110,6 +114,15 @@ def _check_before_tracking(source: FrameSource, specs: tuple[MarkerSpec, ...],
     """What can be refused before a single frame is tracked, so a long video is not
     tracked only to fail at its end."""
     width, height, video = source.width, source.height, source.path
+    if min(width, height) < MIN_FRAME_PX:
+        raise CranktrackError(f"{video} is {width}x{height} px: too small to hold a marker "
+                              f"(at least {MIN_FRAME_PX} px each way)")
+    for s in specs:
+        if s.near_px is not None and not (0 <= s.near_px[0] < width
+                                          and 0 <= s.near_px[1] < height):
+            raise CranktrackError(
+                f"--marker {s.name}: @{s.near_px[0]:g},{s.near_px[1]:g} lies outside the "
+                f"{width}x{height} frame (x from 0 to {width - 1}, y from 0 to {height - 1})")
     names = [s.name for s in specs]
     if known_length is not None:
         missing = [m for m in known_length[:2] if m not in names]
