@@ -1,5 +1,6 @@
 """Property-based: whatever bytes or JSON a user hands over, no traceback."""
 
+import functools
 import json
 import tempfile
 from pathlib import Path
@@ -23,6 +24,33 @@ def test_random_bytes_as_a_video_never_crash(body, mp4_header):
         # 0: decoded something; 1: one clear sentence. Anything else raises here.
         assert main(["track", str(video), "--out", str(Path(tmp) / "run"),
                      "--known-length", "A-C=160.8"]) in (0, 1)
+
+
+@functools.cache
+def _clip() -> bytes:
+    """A small real render's bytes (160×120, 1 s), made once."""
+    from cranktrack.synthetic.scenarios import SpoolScenario
+    from cranktrack.synthetic.scene import RenderSettings, render_scene
+
+    with tempfile.TemporaryDirectory() as tmp:
+        settings = RenderSettings(size=(160, 120), fps=30.0, seconds=1.0, seed=4)
+        return render_scene(SpoolScenario(), Path(tmp), settings).video.read_bytes()
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(flips=st.lists(st.tuples(st.floats(0, 1), st.integers(1, 255)), min_size=1,
+                      max_size=8), in_header=st.booleans())
+def test_a_real_clip_with_flipped_bytes_never_crashes(flips, in_header):
+    # Bytes flipped in the container's header and index (the first 2 kB: ftyp, moov)
+    # or anywhere in the file; 0 or one clear sentence, never a traceback.
+    data = bytearray(_clip())
+    span = min(2048, len(data)) if in_header else len(data)
+    for where, mask in flips:
+        data[min(int(where * span), span - 1)] ^= mask
+    with tempfile.TemporaryDirectory() as tmp:
+        video = Path(tmp) / "clip.mp4"
+        video.write_bytes(bytes(data))
+        assert main(["track", str(video), "--out", str(Path(tmp) / "run"), "--quiet"]) in (0, 1)
 
 
 json_values = st.recursive(
