@@ -46,7 +46,8 @@ def track(video: str | os.PathLike, markers: Mapping[str, str | float] | None = 
           out: str | os.PathLike | None = None, calibration: str | os.PathLike | None = None,
           start_s: float | None = None, end_s: float | None = None,
           roi: tuple[int, int, int, int] | None = None, window_s: float | None = None,
-          fill_gaps: int = 0, on_frame: Callable[[int], None] | None = None) -> RunResult:
+          fill_gaps: int = 0, on_frame: Callable[[int], None] | None = None,
+          overwrite: bool = False) -> RunResult:
     """Track ``video`` into a run folder and return the run (``.tracks``, ``.kinematics``).
 
     ``markers`` maps names to colours as ``--marker`` takes them (``{"A": "green"}``,
@@ -57,6 +58,7 @@ def track(video: str | os.PathLike, markers: Mapping[str, str | float] | None = 
     video). ``start_s``/``end_s`` (s), ``roi`` (x, y, w, h px), ``window_s`` and
     ``fill_gaps`` (frames) are the command's ``--start``, ``--end``, ``--roi``,
     ``--window-s`` and ``--fill-gaps``; ``on_frame(index)`` is called after each frame.
+    ``overwrite`` replaces the run of another video that ``out`` holds (otherwise refused).
 
     Raises :class:`~cranktrack.errors.CranktrackError` with one sentence on bad input.
     """
@@ -86,7 +88,8 @@ def track(video: str | os.PathLike, markers: Mapping[str, str | float] | None = 
     folder = Path(out) if out is not None else video.with_name(f"{video.stem}_run")
     return track_run(video, folder, known_length, _specs(markers), window_s=window_s,
                      fill_gaps_frames=fill_gaps, calibration=plane, span=span,
-                     roi=None if roi is None else Roi(*roi), on_frame=on_frame)
+                     roi=None if roi is None else Roi(*roi), on_frame=on_frame,
+                     overwrite=overwrite)
 
 
 def open_run(folder: str | os.PathLike) -> RunResult:

@@ -222,6 +222,9 @@ def _track_command(sub: argparse._SubParsersAction) -> None:
                         "--known-length is only checked")
     p.add_argument("--resume", action="store_true",
                    help="continue a run in --out that was interrupted (Ctrl-C)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="--out holds another video's run: replace it (its outputs are "
+                        "removed first)")
     p.add_argument("--rerun", nargs="?", const="RUN/run.rrd", metavar="FILE|spawn",
                    help="also write a Rerun recording (default RUN/run.rrd), or `spawn` a viewer")
     p.add_argument("--fill-gaps", type=_count, default=0, metavar="N",

@@ -156,6 +156,7 @@ def track_run(
     span: Span | None = None,
     roi: Roi | None = None,
     on_stage: Callable[[str], None] | None = None,
+    overwrite: bool = False,
 ) -> RunResult:
     """Track ``video`` into ``out_dir`` (only the frames within ``span``, and only the
     part of each frame within ``roi``, if given).
@@ -174,13 +175,15 @@ def track_run(
     ``.tracker_state.pkl``; the resumed result equals an uninterrupted run).
     ``on_start(expected_frames)`` and ``on_frame(index)`` report progress, and
     ``on_stage(name)`` each step after the frames (``"kinematics"``, ``"report"``).
+    ``overwrite`` replaces the run of another video that ``out_dir`` holds (without it,
+    such a folder is refused).
     """
     source = open_frames(video, fps=fps)
     _check_before_tracking(source, specs, known_length, calibration, window_s)
     folder = ensure_dir(out_dir)
     with claimed(folder):
         if not resume:
-            clear_for(folder, video)
+            clear_for(folder, video, overwrite)
         try:
             result = _track_into(folder, source, video, known_length, specs, window_s,
                                  fill_gaps_frames, calibration, resume, on_start, on_frame,

@@ -140,17 +140,21 @@ def claimed(folder: Path) -> Iterator[Path]:
         lock.unlink(missing_ok=True)
 
 
-def clear_for(folder: Path, video: str | os.PathLike) -> list[str]:
+def clear_for(folder: Path, video: str | os.PathLike, overwrite: bool = False) -> list[str]:
     """Make ``folder`` ready for a fresh run of ``video``: refuse a folder that holds
-    another video's run, and remove the earlier run's outputs (:data:`RUN_OUTPUTS`
-    and the fit folder) where it held this one's. Returns the names removed."""
+    another video's run (unless ``overwrite``), and remove the earlier run's outputs
+    (:data:`RUN_OUTPUTS`, the fit folder and any interrupted run's tracker state).
+    Returns the names removed."""
     info = RunFolder(folder).read_json(RUN_INFO)
     here = str(Path(video).resolve())
     before = (info or {}).get("source", {}).get("path")
-    if before and before != here:
+    if before and before != here and not overwrite:
         raise CranktrackError(f"{folder} already holds the run of {before}; give another --out "
-                              "for this video, or delete that folder first")
+                              "for this video, or --overwrite to replace that run")
     removed = []
+    if overwrite and (Path(folder) / TRACKER_STATE).exists():
+        (Path(folder) / TRACKER_STATE).unlink()
+        removed.append(TRACKER_STATE)
     for name in RUN_OUTPUTS:
         if (Path(folder) / name).exists():
             (Path(folder) / name).unlink()

@@ -2,6 +2,7 @@
 work done kept."""
 
 import errno
+import json
 import subprocess
 import sys
 
@@ -356,6 +357,12 @@ def test_a_reused_run_folder_does_not_mix_runs(small_h264, tmp_path, capsys):
     assert main(["track", str(other), "--out", str(run)]) == 1
     assert "already holds the run of" in capsys.readouterr().err
     assert (run / "tracks.csv").exists()
+    # With --overwrite it replaces that run: nothing of the first one is left.
+    (run / "fit").mkdir()
+    (run / "fit" / "report.json").write_text("{}")
+    assert main(["track", str(other), "--out", str(run), "--overwrite"]) == 0
+    assert json.loads((run / "run.json").read_text())["source"]["path"] == str(other.resolve())
+    assert not (run / "fit").exists()
 
 
 def test_ctrl_c_during_a_render_leaves_no_half_video_and_no_empty_folder(tmp_path):
