@@ -160,7 +160,7 @@ FAST_CHANGE_K = 0.3
 
 
 @njit(cache=True, nogil=True)
-def _latent_from(xi_start: float, heating: bool, lo: float, hi: float) -> float:
+def _latent_from(xi_start: float, lo: float, hi: float) -> float:
     """The temperature (°C) where the active cosine branch (eqs. 4.3–4.6, between
     ``lo`` and ``hi``) meets ξ at the piece's start: ξ follows the branch, and takes
     latent heat, above it when heating and below it when cooling (min/max below)."""
@@ -206,7 +206,7 @@ def _rk4(T0: float, conv0: float, start: float, times: NDArray, max_step: float,
     crosses that temperature is cut there, found by bisection.
     """
     T_out, conv_out = np.empty(times.size), np.empty(times.size)
-    T_join = _latent_from(xi_start, heating, lo, hi)
+    T_join = _latent_from(xi_start, lo, hi)
     sign = 1.0 if heating else -1.0
     latent = sign * (T0 - T_join) > 0.0
     T, conv, now = T0, conv0, start
@@ -254,8 +254,9 @@ def simulate_wire(wire: SMAWire, current: CurrentSteps, t_s: ArrayLike,
     rtol : float
         Relative tolerance of the integration (a fit may trade accuracy for speed).
     fast : bool
-        Classical Runge–Kutta in steps of ``FAST_STEP_S``, compiled, instead of
-        Dormand–Prince (``rtol`` then unused): for fits that simulate many times.
+        Classical Runge–Kutta, compiled, in steps of at most ``FAST_STEP_S`` and
+        ``FAST_CHANGE_K``, instead of Dormand–Prince (``rtol`` then unused): for fits
+        that simulate many times.
     """
     t = np.asarray(t_s, dtype=float)
     if t.ndim != 1 or t.size < 2 or np.any(np.diff(t) <= 0):
@@ -274,7 +275,7 @@ def simulate_wire(wire: SMAWire, current: CurrentSteps, t_s: ArrayLike,
 
     def rhs(_t: float, y: NDArray, power: float, xi_start: float, heating: bool,
             lo: float, hi: float) -> list[float]:
-        T_join = _latent_from(xi_start, heating, lo, hi)
+        T_join = _latent_from(xi_start, lo, hi)
         return list(_heat_rate(y[0], power, y[0] > T_join if heating else y[0] < T_join,
                                lo, hi, constants))
 
