@@ -152,7 +152,7 @@ def clear_for(folder: Path, video: str | os.PathLike, overwrite: bool = False) -
         raise CranktrackError(f"{folder} already holds the run of {before}; give another --out "
                               "for this video, or --overwrite to replace that run")
     removed = []
-    if overwrite and (Path(folder) / TRACKER_STATE).exists():
+    if (Path(folder) / TRACKER_STATE).exists():  # a fresh run: nothing of it to resume
         (Path(folder) / TRACKER_STATE).unlink()
         removed.append(TRACKER_STATE)
     for name in RUN_OUTPUTS:

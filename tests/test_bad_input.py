@@ -204,44 +204,31 @@ def test_a_real_sigint_mid_frame_resumes_byte_for_byte(small_h264, tmp_path, at_
     _same_bytes(tmp_path / "full", tmp_path / "cut")
 
 
-def test_ctrl_c_in_the_kinematics_step_resumes(small_h264, tmp_path, monkeypatch):
+@pytest.mark.parametrize("module, step, not_yet", [
+    ("cranktrack.pipeline", "measure_kinematics", "kinematics.csv"),
+    ("cranktrack.report.summary", "write_report", "report.md")])
+def test_ctrl_c_after_the_frames_resumes(small_h264, tmp_path, monkeypatch, module, step,
+                                         not_yet):
+    import importlib
+
     import cranktrack.pipeline as pipeline
     from cranktrack.errors import RunInterrupted
 
     pipeline.track_run(small_h264.video, tmp_path / "full", ("A", "C", 160.8))
-    real = pipeline.measure_kinematics
+    owner = importlib.import_module(module)
+    real = getattr(owner, step)
 
     def stopped(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(pipeline, "measure_kinematics", stopped)
+    monkeypatch.setattr(owner, step, stopped)
     with pytest.raises(RunInterrupted) as stop:
         pipeline.track_run(small_h264.video, tmp_path / "cut", ("A", "C", 160.8))
-    assert stop.value.resumable and not (tmp_path / "cut" / "kinematics.csv").exists()
-    monkeypatch.setattr(pipeline, "measure_kinematics", real)
+    assert stop.value.resumable and not (tmp_path / "cut" / not_yet).exists()
+    monkeypatch.setattr(owner, step, real)
     pipeline.track_run(small_h264.video, tmp_path / "cut", ("A", "C", 160.8), resume=True)
     _same_bytes(tmp_path / "full", tmp_path / "cut")
     assert not (tmp_path / "cut" / ".tracker_state.pkl").exists()
-
-
-def test_ctrl_c_while_the_report_is_written_resumes(small_h264, tmp_path, monkeypatch):
-    import cranktrack.pipeline as pipeline
-    import cranktrack.report.summary as summary
-    from cranktrack.errors import RunInterrupted
-
-    pipeline.track_run(small_h264.video, tmp_path / "full", ("A", "C", 160.8))
-    real = summary.write_report
-
-    def stopped(*args, **kwargs):
-        raise KeyboardInterrupt
-
-    monkeypatch.setattr(summary, "write_report", stopped)
-    with pytest.raises(RunInterrupted) as stop:
-        pipeline.track_run(small_h264.video, tmp_path / "cut", ("A", "C", 160.8))
-    assert stop.value.resumable and not (tmp_path / "cut" / "report.md").exists()
-    monkeypatch.setattr(summary, "write_report", real)
-    pipeline.track_run(small_h264.video, tmp_path / "cut", ("A", "C", 160.8), resume=True)
-    _same_bytes(tmp_path / "full", tmp_path / "cut")
 
 
 def test_ctrl_c_before_the_first_frame_is_not_called_resumable(small_h264, tmp_path):
