@@ -18,13 +18,20 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(PIP) install --upgrade pip
 
+# numba compiles each kernel on first use and caches it on disk: do it once here,
+# so the first command a user runs is not 6-8 s slower than every later one.
+WARMUP := @echo "compiling cranktrack's numba kernels once (cached on disk)..." && \
+          $(BIN)/python -c "from cranktrack.warmup import compile_kernels; compile_kernels()"
+
 # Stamps: reinstall only when pyproject.toml changes.
 $(VENV)/.installed-run: pyproject.toml | $(BIN)/python
 	$(PIP) install -e .
+	$(WARMUP)
 	touch $@
 
 $(VENV)/.installed-test: pyproject.toml | $(BIN)/python
 	$(PIP) install -e '.[test]'
+	$(WARMUP)
 	touch $@ $(VENV)/.installed-run
 
 demo: $(VENV)/.installed-run

@@ -227,6 +227,9 @@ def _track_command(sub: argparse._SubParsersAction) -> None:
                         "removed first)")
     p.add_argument("--rerun", nargs="?", const="RUN/run.rrd", metavar="FILE|spawn",
                    help="also write a Rerun recording (default RUN/run.rrd), or `spawn` a viewer")
+    p.add_argument("--format", choices=("csv", "parquet"), default="csv",
+                   help="parquet: also write tracks.parquet and kinematics.parquet (typed, "
+                        "smaller and faster to load for long runs) beside the CSV files")
     p.add_argument("--fill-gaps", type=_count, default=0, metavar="N",
                    help="interpolate gaps of up to N frames, flagged as interpolated (0: off)")
     p.add_argument("--fps", dest="fps_images", type=_positive,

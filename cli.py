@@ -249,6 +249,7 @@ def _track(args: argparse.Namespace, video: Path, out: Path):
                          fill_gaps_frames=getattr(args, "fill_gaps", 0), calibration=plane,
                          resume=getattr(args, "resume", False), on_start=start,
                          overwrite=getattr(args, "overwrite", False),
+                         table_format=getattr(args, "format", "csv"),
                          on_frame=lambda i: bar.update(1),
                          on_stage=lambda stage: bar.set_description_str(f"track: {stage}"))
 

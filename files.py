@@ -76,6 +76,15 @@ def write_csv_atomic(path: str | os.PathLike, table: pd.DataFrame) -> Path:
     return write_text_atomic(path, table.to_csv(index=False, float_format="%.10g"))
 
 
+def write_parquet_atomic(path: str | os.PathLike, table: pd.DataFrame) -> Path:
+    """Write a table as Parquet (pyarrow, no index) atomically."""
+    import io
+
+    buffer = io.BytesIO()
+    table.to_parquet(buffer, engine="pyarrow", index=False)
+    return write_text_atomic(path, buffer.getvalue())
+
+
 def write_json_atomic(path: str | os.PathLike, data: Any) -> Path:
     """Write JSON (indented, UTF-8) atomically."""
     return write_text_atomic(path, json.dumps(data, indent=2, allow_nan=True) + "\n")

@@ -27,7 +27,13 @@ from .calibration.plane import (
     align_to_markers,
 )
 from .errors import CranktrackError, RunInterrupted
-from .files import ensure_dir, write_csv_atomic, write_json_atomic, write_text_atomic
+from .files import (
+    ensure_dir,
+    write_csv_atomic,
+    write_json_atomic,
+    write_parquet_atomic,
+    write_text_atomic,
+)
 from .kinematics.measured import LINK_JUMP_SIGMA, LINK_WANDER, measure_kinematics
 from .run_folder import (
     CALIBRATION,
@@ -39,10 +45,12 @@ from .run_folder import (
     FIT_TABLE,
     KINEMATICS,
     KINEMATICS_FIGURE,
+    KINEMATICS_PARQUET,
     RECORDING,
     RUN_INFO,
     TRACKER_STATE,
     TRACKS,
+    TRACKS_PARQUET,
     claimed,
     clear_for,
     record_step,
@@ -157,6 +165,7 @@ def track_run(
     roi: Roi | None = None,
     on_stage: Callable[[str], None] | None = None,
     overwrite: bool = False,
+    table_format: str = "csv",
 ) -> RunResult:
     """Track ``video`` into ``out_dir`` (only the frames within ``span``, and only the
     part of each frame within ``roi``, if given).
@@ -176,8 +185,11 @@ def track_run(
     ``on_start(expected_frames)`` and ``on_frame(index)`` report progress, and
     ``on_stage(name)`` each step after the frames (``"kinematics"``, ``"report"``).
     ``overwrite`` replaces the run of another video that ``out_dir`` holds (without it,
-    such a folder is refused).
+    such a folder is refused). ``table_format="parquet"`` also writes the tracks and
+    kinematics as Parquet (``tracks.parquet``, ``kinematics.parquet``) beside the CSVs.
     """
+    if table_format not in ("csv", "parquet"):
+        raise CranktrackError(f"unknown table format {table_format!r}; use csv or parquet")
     source = open_frames(video, fps=fps)
     _check_before_tracking(source, specs, known_length, calibration, window_s)
     folder = ensure_dir(out_dir)
@@ -188,6 +200,12 @@ def track_run(
             result = _track_into(folder, source, video, known_length, specs, window_s,
                                  fill_gaps_frames, calibration, resume, on_start, on_frame,
                                  span, roi, on_stage or (lambda stage: None))
+            if table_format == "parquet":
+                result.files["tracks_parquet"] = write_parquet_atomic(
+                    folder / TRACKS_PARQUET, result.tracks)
+                if result.kinematics is not None:
+                    result.files["kinematics_parquet"] = write_parquet_atomic(
+                        folder / KINEMATICS_PARQUET, result.kinematics)
         except KeyboardInterrupt as e:
             # The tracker's state stays until the whole run is written, so a run stopped
             # in any step after its first frame resumes; before it, there is nothing to.

@@ -29,6 +29,10 @@ KINEMATICS = "kinematics.csv"
 RUN_INFO = "run.json"
 #: The plane calibration the run used or made.
 CALIBRATION = "calibration.json"
+#: `track --format parquet`: the same two tables as Parquet, beside the CSV files
+#: (which the other commands read).
+TRACKS_PARQUET = "tracks.parquet"
+KINEMATICS_PARQUET = "kinematics.parquet"
 #: The run's summary for a person, and its kinematics figure.
 REPORT = "report.md"
 KINEMATICS_FIGURE = "kinematics.png"
@@ -55,8 +59,9 @@ MANIFEST = "manifest.json"
 #: What a tracking run writes or derives from its tracks: cleared before a fresh run
 #: of the same video, so a file of the earlier run (kinematics from an earlier
 #: scale, a fit of the earlier tracks) cannot sit beside the new ones.
-RUN_OUTPUTS = (TRACKS, KINEMATICS, RUN_INFO, CALIBRATION, REPORT, KINEMATICS_FIGURE,
-               COMPARE_TABLE, COMPARE_FIT, COMPARE_REPORT, RECORDING, MANIFEST)
+RUN_OUTPUTS = (TRACKS, KINEMATICS, TRACKS_PARQUET, KINEMATICS_PARQUET, RUN_INFO,
+               CALIBRATION, REPORT, KINEMATICS_FIGURE, COMPARE_TABLE, COMPARE_FIT,
+               COMPARE_REPORT, RECORDING, MANIFEST)
 
 
 @dataclass(frozen=True)

@@ -68,6 +68,25 @@ def test_synth_then_track(tmp_path, capsys):
     assert not (tmp_path / "r" / "kinematics.csv").exists()
 
 
+def test_parquet_tables_hold_what_the_csv_files_hold_and_leave_with_the_run(
+        small_h264, tmp_path, capsys):
+    run = tmp_path / "r"
+    args = ["track", str(small_h264.video), "--out", str(run), "--known-length", "A-C=160.8"]
+    assert main([*args, "--format", "parquet"]) == 0
+    assert "tracks.parquet, kinematics.parquet" in capsys.readouterr().out
+    for name in ("tracks", "kinematics"):
+        csv, parquet = pd.read_csv(run / f"{name}.csv"), pd.read_parquet(run / f"{name}.parquet")
+        assert list(parquet.columns) == list(csv.columns) and len(parquet) == len(csv)
+        for col in csv.columns:
+            if not pd.api.types.is_float_dtype(csv[col]):
+                assert (parquet[col].astype(str) == csv[col].astype(str)).all(), col
+            else:  # the CSV keeps 10 significant digits, Parquet all of them
+                pd.testing.assert_series_equal(parquet[col].astype(float),
+                                               csv[col].astype(float), rtol=1e-9)
+    assert main(args) == 0  # a CSV-only rerun must not leave the old Parquet beside it
+    assert not list(run.glob("*.parquet"))
+
+
 def _one_sentence_error(p: subprocess.CompletedProcess, *words: str) -> None:
     assert p.returncode != 0
     assert "Traceback" not in p.stderr
