@@ -364,6 +364,6 @@ def build_parser() -> argparse.ArgumentParser:
     _batch_command(sub)
     _view_command(sub)
     _demo_command(sub)
-    for name in ("synth", "track", "fit", "batch", "demo"):  # the commands that show progress
+    for name in ("synth", "track", "compare", "fit", "batch", "demo"):  # those showing progress
         _add_quiet(sub.choices[name])
     return parser

@@ -445,7 +445,14 @@ def cmd_compare(args: argparse.Namespace) -> int:
     from .run_folder import out_of_date
 
     _print_warnings(out_of_date(args.run, ["track"]))
-    result, files = compare_run(Path(args.run), known)
+    with _progress("compare", 3, unit="step") as bar:
+        def stage(name: str) -> None:
+            if name != "fit":  # the step before it is done
+                bar.update(1)
+            bar.set_description_str(f"compare: {name}")
+
+        result, files = compare_run(Path(args.run), known, on_stage=stage)
+        bar.update(1)
     for m in result.fit.messages:
         print(f"note: {m}")
     print("fitted: " + ", ".join(f"{k} = {v:.5g} ± {sd:.2g}"

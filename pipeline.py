@@ -432,13 +432,19 @@ def fit_run(run: Path, model: str, known: dict[str, float],
     return result, files
 
 
-def compare_run(run: Path, known: dict[str, float]) -> tuple[Comparison, list[Path]]:
+def compare_run(run: Path, known: dict[str, float],
+                on_stage: Callable[[str], None] | None = None
+                ) -> tuple[Comparison, list[Path]]:
     """Fit the spool model to ``run/kinematics.csv`` and write the comparison.
 
     Writes ``compare.csv`` (measured, σ, model and error side by side),
     ``compare.json`` (fitted parameters ± 1σ, fixed ones, error figures),
     ``compare.md`` and the figures; returns the comparison and the paths.
+    ``on_stage(name)`` is told each step as it starts (``"fit"``, ``"figures"``,
+    ``"report"``).
     """
+    stage = on_stage or (lambda name: None)
+    stage("fit")
     from .loop.compare import compare_spool
     from .report.compare import compare_markdown
     from .report.plots import plot_comparison
@@ -449,9 +455,11 @@ def compare_run(run: Path, known: dict[str, float]) -> tuple[Comparison, list[Pa
     report = {**result.fit.to_dict(), "errors": result.summary.to_dict(orient="records")}
     files = [write_csv_atomic(run / COMPARE_TABLE, result.table),
              write_json_atomic(run / COMPARE_FIT, report)]
+    stage("figures")
     figures = plot_comparison(result.table, run, result.curve)
     files.append(write_text_atomic(run / COMPARE_REPORT,
                                    compare_markdown(report, result.summary, figures)))
+    stage("report")
     files.append(write_report(run))
     record_step(run, "compare", [COMPARE_TABLE], [KINEMATICS])
     return result, files + figures

@@ -196,3 +196,8 @@ def test_track_shows_progress_on_a_terminal_and_none_with_quiet(tmp_path):
     assert "/30 [" in shown and "track: kinematics" in shown and "track: report" in shown
     quiet = _on_a_terminal("track", video, "--out", str(tmp_path / "r2"), "--quiet")
     assert "/30 [" not in quiet and "track:" not in quiet and "wrote" in quiet
+    # compare (a fit, figures and a report: seconds) names its step on the same terms.
+    shown = _on_a_terminal("compare", str(tmp_path / "r1"))
+    assert "compare: fit" in shown and "compare: report" in shown and "wrote" in shown
+    quiet = _on_a_terminal("compare", str(tmp_path / "r1"), "--quiet")
+    assert "compare:" not in quiet and "wrote" in quiet
