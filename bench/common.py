@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+import sys
 import time
 from pathlib import Path
 
@@ -20,3 +22,19 @@ def scene(name: str, settings: RenderSettings) -> SceneFiles:
         render_scene(SpoolScenario(), folder, settings)
         print(f"rendered {name} in {time.perf_counter() - t:.1f} s")
     return files
+
+
+def clip_1080p(frames: int) -> SceneFiles:
+    """The 1920×1080 H.264 spool render that bench/speed.py and bench/memory.py share
+    (30 fps, noise 2.5 DN, seed 5), ``frames`` long; one cache folder per length."""
+    return scene(f"speed_1080p_{frames}", RenderSettings(
+        size=(1920, 1080), fps=30.0, seconds=frames / 30.0, noise_dn=2.5, seed=5))
+
+
+def track_command(files: SceneFiles, out: Path, video: Path | None = None) -> list[str]:
+    """``cranktrack track`` as a user runs it on a render (or on ``video``, a copy of its
+    frames): with the render's own A–C length, so kinematics, tables and report are
+    all made."""
+    length = json.loads(files.scene.read_text())["scenario"]["L1"]
+    return [sys.executable, "-m", "cranktrack", "track", str(video or files.video),
+            "--out", str(out), "--known-length", f"A-C={length}", "--quiet"]

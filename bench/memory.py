@@ -18,16 +18,14 @@ and their ratio (target ≤ 1.5, #24), then the command's long/short ratio
 
 from __future__ import annotations
 
-import json
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import scene
+from common import clip_1080p, track_command
 
-from cranktrack.synthetic.scene import RenderSettings
 from cranktrack.synthetic.video import VideoWriter
 from cranktrack.tracker.video import open_frames
 
@@ -70,18 +68,14 @@ def peak_mib(command: list[str]) -> float:
 
 
 def main() -> None:
-    short = scene("speed_1080p_900", RenderSettings(size=(1920, 1080), fps=30.0,
-                                                    seconds=30.0, noise_dn=2.5, seed=5))
+    short = clip_1080p(900)
     long = short.folder / "looped_9000.mp4"
     looped(short.video, long, 10, 30.0)
-    known = f"A-C={json.loads(short.scene.read_text())['scenario']['L1']}"
     command_peaks = []
     for video, frames in ((short.video, 900), (long, 9000)):
         decode = peak_mib([sys.executable, "-c", DECODE, str(video)])
         with tempfile.TemporaryDirectory() as tmp:
-            track = peak_mib([sys.executable, "-m", "cranktrack", "track", str(video),
-                              "--out", str(Path(tmp) / "run"), "--known-length", known,
-                              "--quiet"])
+            track = peak_mib(track_command(short, Path(tmp) / "run", video))
         command_peaks.append(track)
         print(f"{frames:5d} frames: peak RSS decode only {decode:6.1f} MiB, cranktrack track "
               f"{track:6.1f} MiB, ratio {track / decode:.2f}  (target ≤ 1.5)", flush=True)

@@ -32,7 +32,6 @@ imports under ``cranktrack.pipeline`` from ``python -X importtime``.
 from __future__ import annotations
 
 import argparse
-import json
 import subprocess
 import sys
 import tempfile
@@ -45,9 +44,9 @@ import numpy as np
 import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import scene
+from common import clip_1080p, track_command
 
-from cranktrack.synthetic.scene import RenderSettings
+from cranktrack.synthetic.scene import SceneFiles
 from cranktrack.tracker.markers import DEFAULT_MARKERS
 from cranktrack.tracker.track import track
 from cranktrack.tracker.video import open_frames
@@ -74,13 +73,12 @@ def track_all(path: Path) -> tuple[int, float, pd.DataFrame]:
     return len(result.tracks), time.perf_counter() - t, result.tracks
 
 
-def whole_command(path: Path, known_length: str) -> float:
-    """Wall time (s) of ``cranktrack track`` on ``path`` in a fresh process."""
+def whole_command(files: SceneFiles) -> float:
+    """Wall time (s) of ``cranktrack track`` on the render in a fresh process."""
     with tempfile.TemporaryDirectory() as tmp:
         t = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "cranktrack", "track", str(path), "--out",
-                        str(Path(tmp) / "run"), "--known-length", known_length, "--quiet"],
-                       check=True, stdout=subprocess.DEVNULL)
+        subprocess.run(track_command(files, Path(tmp) / "run"), check=True,
+                       stdout=subprocess.DEVNULL)
         return time.perf_counter() - t
 
 
@@ -173,14 +171,10 @@ def main() -> None:
     ap.add_argument("--startup-only", action="store_true",
                     help="measure the start-up only, not the tracking speed")
     args = ap.parse_args()
-    settings = RenderSettings(size=(1920, 1080), fps=30.0, seconds=args.frames / 30.0,
-                              noise_dn=2.5, seed=5)
-    files = scene(f"speed_1080p_{args.frames}", settings)
+    files = clip_1080p(args.frames)
     startup(files.video)
     if args.startup_only:
         return
-    length = json.loads(files.scene.read_text())["scenario"]["L1"]
-    known = f"A-C={length}"
     truth = pd.read_csv(files.truth)
     best: dict[str, float] = {}
     tables: dict[str, pd.DataFrame] = {}
@@ -191,7 +185,7 @@ def main() -> None:
         fps = {"decode": n / dt}
         n, dt = decode_only(files.video, None)
         fps["native"] = n / dt
-        fps["command"] = n / whole_command(files.video, known)
+        fps["command"] = n / whole_command(files)
         chosen = (("track", track_all), ("alternative", alternative)) if k == 0 else (
             ("track", track_all),)
         for name, fn in chosen:
@@ -207,7 +201,7 @@ def main() -> None:
     print(f"decode only : {best['decode']:7.1f} fps to RGB arrays, {best['native']:7.1f} fps "
           "to the decoder's YUV planes")
     print(f"{'cranktrack track':18s}: {best['command']:7.1f} fps as a whole command "
-          f"(--known-length {known}), ratio to decode {best['command'] / best['decode']:.3f}")
+          f"(with --known-length), ratio to decode {best['command'] / best['decode']:.3f}")
     for name, label in (("track", "tracker alone"), ("alternative", "HSV + HoughCircles")):
         print(f"{label:18s}: {best[name]:7.1f} fps, ratio to decode "
               f"{best[name] / best['decode']:.3f}; RMS error px: {rms_px(tables[name], truth)}")
