@@ -215,11 +215,6 @@ def sindy_terms(run: Path) -> set[str]:
 
 def sindy_comparison(seeds: int) -> None:
     """How often SINDy keeps the term an effect needs, and how often it keeps it anyway."""
-    try:
-        import pysindy  # noqa: F401
-    except ImportError:
-        print("\nPySINDy comparison skipped: pip install 'cranktrack[bench]'")
-        return
     rows = []
     for noise in (2.5, 8.0):
         for seed in range(seeds):
@@ -309,6 +304,9 @@ def open_world(nulls: int) -> None:
                                                                 else 0.0))
             if expect == "unexplained" and r["leftover"]:
                 rec["signature"] = r["leftover"]["sentence"][:90]
+                d = r["leftover"].get("discovery")
+                rec["proposed"] = (f"{d['equation']}  (θ RMSE {d['rmse_before_deg']:.3g}° → "
+                                   f"{d['rmse_after_deg']:.3g}°)" if d else "nothing proposed")
             rows.append(rec)
     table = pd.DataFrame(rows)
     table["first"] = table["named"].map(lambda x: x[0] if x else "none")
@@ -333,6 +331,9 @@ def open_world(nulls: int) -> None:
     cols = [c for c in ("truth", "size", "named", "value", "true", "rel_err", "signature")
             if c in eff]
     print(eff[cols].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    print("\nOutside the library, the missing term the sparse regression proposes:")
+    for _, row in outside.iterrows():
+        print(f"  {row['truth']}, {row['size']}: {row.get('proposed', 'nothing proposed')}")
     loop_speed()
 
 

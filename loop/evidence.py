@@ -127,6 +127,9 @@ class ModelFit:
     unit_cov: NDArray[np.float64]
     model: NDArray[np.float64]
     residual: NDArray[np.float64]
+    #: d(residual)/d(free values) at the fit (frames × free), for what the free
+    #: parameters can mimic (:mod:`.discovery` projects it out).
+    jacobian: NDArray[np.float64] | None = None
 
     @property
     def rss(self) -> float:

@@ -23,8 +23,9 @@ Three base models (:data:`MODELS`): ``spool`` (the rigid bed of thesis §2.5.2),
    first left); a lens or tilt must show the bend of the rigid crank it
    predicts (:func:`_link_veto`); a readout must be shorter than a frame.
 5. Open world: when the residual stays structured above 1.5× the tracker's
-   noise, the accepted effects are not named (``tentative``) and the leftover
-   is described instead (:mod:`.leftover`).
+   noise, the accepted effects are not named (``tentative``), the leftover
+   is described instead (:mod:`.leftover`) and a sparse regression proposes an
+   equation for the missing term (:mod:`.discovery`).
 
 The BIC and the parameter intervals count independent evidence, not frames
 (:mod:`.evidence` says why and how).
@@ -49,6 +50,7 @@ from scipy.optimize import least_squares
 from ..errors import CranktrackError
 from .camera_view import CameraView, camera_link_mm, with_camera
 from .candidates import CAMERA_CANDIDATES, CAMERA_PARAMETERS, READOUT, Candidate, Parameter
+from .discovery import discover
 from .evidence import (
     BIC_THRESHOLD,
     IMPRINT_SIGMAS,
@@ -103,7 +105,7 @@ def _fit(t: NDArray, theta: NDArray, simulate: Callable, fixed: dict[str, float]
         return None
     unit_cov = np.linalg.pinv(best.jac.T @ best.jac)
     return ModelFit(effects, values_of(best.x), tuple(p.name for p in free), unit_cov,
-                    theta - best.fun, best.fun)
+                    theta - best.fun, best.fun, best.jac)
 
 
 def _switched_off(c: Candidate) -> dict[str, float]:
@@ -252,6 +254,11 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
                 if sc.accepted else sc for sc in scores]
             current, steps, after = base, [], before
         leftover = signature(t, np.degrees(base.residual), np.degrees(base.model), ctx)
+        ripple = next((s for s in leftover["shapes"] if s["kind"] == "periodic"), None)
+        found = discover(t, np.degrees(base.residual), np.degrees(base.model), level,
+                         base.jacobian, ripple and ripple["hz"],
+                         bool(ripple and ripple["while_moving_only"]))
+        leftover["discovery"] = found.to_dict() if found else None
     return LoopResult(model, known, base, current, steps, scores, not_separable, groups,
                       before, after, noise, tracker_deg, rigid, messages,
                       tentative=tuple(tentative), leftover=leftover)

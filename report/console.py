@@ -77,4 +77,8 @@ def fit_text(report: dict) -> str:
         lines.append(f"not tried: {n['name']} needs --known {' or '.join(n['needs'])}")
     if report["unexplained"]:
         lines.append(f"unexplained: {report['unexplained']}")
+        found = (report.get("leftover") or {}).get("discovery")
+        if found:
+            lines.append(f"proposed missing term: {found['equation']} (θ RMSE "
+                         f"{found['rmse_before_deg']:.3g}° → {found['rmse_after_deg']:.3g}°)")
     return "\n".join(lines)

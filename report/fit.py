@@ -94,6 +94,12 @@ def plain_summary(report: dict) -> str:
                f"{report['leftover']['sentence']}" if report.get("leftover") else
                f"The {report['model']} model misses the measured angle by {before:.3g}° RMS "
                f"and no effect accounts for it.")
+        found = (report.get("leftover") or {}).get("discovery")
+        if found:
+            out += (f". A sparse regression over functions of θ, ω, time and the drive "
+                    f"proposes `{found['equation']}`, which would bring the error from "
+                    f"{found['rmse_before_deg']:.3g}° to {found['rmse_after_deg']:.3g}° RMS: a "
+                    "shape to look for on the rig, not a named effect")
         return out + (". Treat the model's numbers as approximate until that is found; the "
                       "statistics below say what was tried.")
     if not report["effects"]:
@@ -154,6 +160,20 @@ def _frame_motion_section(report: dict) -> list[str]:
             lines.append(f"Still, as far as the tracks tell: {fm['reason'] or 'no shake'} "
                          f"(A and C move {fm['rmse_before_mm']:.4g} mm RMS across the line; "
                          f"the tracker's σ there is {fm['tracker_sigma_mm']:.4g} mm).")
+    return lines
+
+
+def _discovery_section(found: dict | None) -> list[str]:
+    """The proposed equation for the missing term, its terms and its error before/after."""
+    if not found:
+        return ["", "**Proposed missing term:** none; no function of θ, ω, time or the drive "
+                "in the sparse regression's library takes a clear share of what is left."]
+    lines = ["", f"**Proposed missing term** ({found['method']}):", "",
+             f"    {found['equation']}", "",
+             f"θ RMSE {found['rmse_before_deg']:.4g}° → {found['rmse_after_deg']:.4g}° with it "
+             f"(base model refitted to first order; ΔBIC {found['delta_bic']:.0f}).", "",
+             "| term | coefficient |", "|---|---|"]
+    lines += [f"| {k} | {v:.4g} |" for k, v in found["terms"].items()]
     return lines
 
 
@@ -230,6 +250,7 @@ def report_markdown(report: dict) -> str:
     lines += _links_section(report) + _frame_motion_section(report)
     if report["unexplained"]:
         lines += ["", f"**Unexplained:** {report['unexplained']}."]
+        lines += _discovery_section((report.get("leftover") or {}).get("discovery"))
     for m in report["messages"]:
         lines += ["", f"Note: {m}."]
     lines += ["", "![residuals](residuals.png)", ""]
