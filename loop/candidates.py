@@ -46,6 +46,10 @@ class Candidate:
     needs_known: tuple[str, ...] = ()
     separated_by: str = ""
     also_looks_like: str = ""
+    #: Where the fit has a valley per class of motion (dry friction: one per number of
+    #: swings before the crank sticks), the range (in the first parameter's unit) its
+    #: first parameter is profiled over before the fit; a data guess narrows it.
+    scan: tuple[float, float] | None = None
 
 
 #: Base parameters of the spool model, named as ``--known`` takes them.
@@ -193,7 +197,8 @@ DYNAMIC_CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
               "fraction, and the crank stops off the springs' equilibrium",
               also_looks_like="stiction in a bearing or a rubbing marker; a swing started "
               "from a larger angle separates it from extra viscous damping (dry friction "
-              "costs the same angle per swing whatever the amplitude)"),
+              "costs the same angle per swing whatever the amplitude)",
+              scan=(0.01, 30.0)),
 )}
 
 

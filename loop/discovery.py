@@ -49,6 +49,12 @@ TERMS = {
 
 #: The least share of the residual's sum of squares a term must take to be proposed.
 MIN_SHARE = 0.05
+#: The largest condition number of the kept terms (columns at unit RMS): beyond it two
+#: terms nearly cancel (an offset and θ where the model hardly moves) and their
+#: coefficients are large, opposite and meaningless.
+MAX_CONDITION = 30.0
+#: A term is left out when the base parameters can mimic all but this fraction of its RMS.
+MIMICKED = 0.1
 
 
 @dataclass(frozen=True)
@@ -146,10 +152,12 @@ def discover(t_s: NDArray, residual_deg: NDArray, model_deg: NDArray, noise_deg:
 
     cols, consts = library(t_s, model_deg, ripple_hz, ripple_while_moving)
     names = list(cols)
-    X = beyond_base(np.column_stack([cols[k] for k in names]))
-    r = beyond_base(r)
+    raw = np.column_stack([cols[k] for k in names])
+    X, r = beyond_base(raw), beyond_base(r)
     scale = np.sqrt(np.mean(X**2, axis=0))
-    keep = scale > 1e-6 * max(float(scale.max()), 1e-300)
+    # A term the base parameters mimic almost wholly (an offset, with the rest angle
+    # free) is theirs: what is left of it is a sliver whose coefficient means nothing.
+    keep = scale > MIMICKED * np.sqrt(np.mean(raw**2, axis=0))
     names = [n for n, k in zip(names, keep, strict=True) if k]
     X, scale = X[:, keep] / scale[keep], scale[keep]
     sigma = max(float(noise_deg), 1e-12)
@@ -159,6 +167,8 @@ def discover(t_s: NDArray, residual_deg: NDArray, model_deg: NDArray, noise_deg:
     for support in _elimination_path(X, y):
         if chosen is not None and len(support) != len(chosen[0]) + 1:
             continue
+        if np.linalg.cond(X[:, support]) > MAX_CONDITION:
+            break  # terms that nearly cancel each other: their coefficients mean nothing
         coef, *_ = np.linalg.lstsq(X[:, support], y, rcond=None)
         rest = y - X[:, support] @ coef
         rss = float(rest @ rest)
@@ -186,6 +196,6 @@ def equation(terms: dict[str, float], consts: dict) -> str:
         parts.append(TERMS[name][1].format(c=f"{c:+.3g}", **consts))
     if sin or cos:
         amp, phase = float(np.hypot(sin, cos)), float(np.degrees(np.arctan2(cos, sin)))
-        gate = "·[driving]" if consts["while_moving"] else ""
+        gate = "·[while moving]" if consts["while_moving"] else ""
         parts.append(f"{amp:+.3g}°·sin(2π·{consts['ripple_hz']:.3g} Hz·t {phase:+.0f}°){gate}")
     return "missing θ ≈ " + " ".join(parts)

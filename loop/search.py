@@ -77,7 +77,8 @@ MAX_EVALUATIONS = 200
 
 def _fit(t: NDArray, theta: NDArray, simulate: Callable, fixed: dict[str, float],
          free: list[Parameter], starts: list[list[float]], effects: tuple[str, ...],
-         diff_step: float = 1e-7) -> ModelFit | None:
+         diff_step: float = 1e-7, max_evaluations: int = MAX_EVALUATIONS
+         ) -> ModelFit | None:
     """Least squares of ``theta − simulate(values, t)`` from each start; the best, or None."""
     def values_of(x: NDArray) -> dict[str, float]:
         return {**fixed, **{p.name: float(v) for p, v in zip(free, x, strict=True)}}
@@ -98,7 +99,7 @@ def _fit(t: NDArray, theta: NDArray, simulate: Callable, fixed: dict[str, float]
             continue
         with np.errstate(all="ignore"):
             sol = least_squares(residual, x0, bounds=(lo, hi), x_scale="jac", method="trf",
-                                diff_step=diff_step, max_nfev=MAX_EVALUATIONS)
+                                diff_step=diff_step, max_nfev=max_evaluations)
         if best is None or sol.cost < best.cost:
             best = sol
     if best is None or np.all(best.fun == 10.0):
@@ -320,8 +321,34 @@ class _Fitter:
                    else [start_from, *self.guesses[:self.spec.effect_guesses]])
         starts = [[o[p.name] for p in self.base_free] + list(es)
                   for es in effect_starts for o in origins]
+        scanned = [n for n in effects if self.candidates[n].scan is not None
+                   and self.candidates[n].parameters[0].name not in start_from]
+        if len(scanned) == 1 and len(effects) == 1:
+            starts = self._profile(self.candidates[scanned[0]], start_from) + starts
         return _fit(self.t, self.theta, self.simulate, self.held, free, starts, effects,
                     self.spec.diff_step)
+
+    def _profile(self, c: Candidate, origin: dict[str, float]) -> list[list[float]]:
+        """Starts for an effect whose fit has a valley per class of motion: its first
+        parameter on a geometric grid (from a thirtieth of the data's guess to three times
+        it, or over :attr:`Candidate.scan`), the base refitted briefly at each on at most
+        ~300 frames; the two best, as full starts (base values, then the effect's)."""
+        first, rest = c.parameters[0], c.parameters[1:]
+        guess = next((g[first.name] for g in self.guesses if first.name in g), None)
+        lo, hi = (guess / 30.0, 3.0 * guess) if guess and guess > 0 else c.scan
+        step = max(1, self.t.size // 300)
+        t, theta = self.t[::step], self.theta[::step]
+        others = dict(zip((p.name for p in rest), c.starts[0][1:], strict=True))
+        base0 = [[origin[p.name] for p in self.base_free]]
+        profile = []
+        for v in np.geomspace(lo, hi, 40):
+            quick = _fit(t, theta, self.simulate, {**self.held, first.name: float(v), **others},
+                         self.base_free, base0, (c.name,), self.spec.diff_step, 15)
+            if quick is not None:
+                profile.append((quick.rss, [quick.values[p.name] for p in self.base_free]
+                                + [float(v), *others.values()]))
+        profile.sort(key=lambda p: p[0])
+        return [x for _, x in profile[:2]]
 
 
 def _judge_noise(fitter: _Fitter, base: ModelFit, tryable: list[Candidate],

@@ -190,17 +190,18 @@ def test_the_free_swing_and_the_fitters_equation_agree_without_dry_friction():
     assert np.degrees(np.max(np.abs(crank.swing(t, np.radians(70.0))[0] - theirs))) < 1e-6
 
 
-@pytest.mark.parametrize("friction", [0.0, 0.3, 0.6])
+@pytest.mark.parametrize("friction", [0.0, 0.3, 0.6, 1.2])
 def test_the_dynamic_model_finds_stick_slip_friction_it_did_not_render(friction):
-    # At 0.6 the crank sticks 1.2 s before the end. The fitter's earlier tanh stand-in
-    # for dry friction let it creep on from there: μ came out right (0.600) but 0.078°
-    # (4× the noise) stayed structured, so it was only tentative.
+    # At 0.6 the crank sticks 1.2 s before the end. At 1.2 it sticks after three half
+    # swings, and the least squares has a valley for each number of swings: started
+    # from the data's decay it settled at 0.25 or 0.53 (0.34–0.46° RMS) until the fit
+    # profiled μ first.
     result = close_loop(_free_table(friction, seed=2), {}, model="dynamic").to_dict()
     if friction:
         assert result["effects"] == ["coulomb_rad_s2"]
         fitted = result["parameters"]["coulomb_rad_s2"]["value"]
-        # The fitter's tanh lets the crank creep where the true stick holds it.
-        assert abs(fitted - friction) < 0.15 * friction
+        assert abs(fitted - friction) < 0.05 * friction
+        assert result["rmse_after_deg"] < 1.5 * SIGMA
     else:
         assert result["effects"] == []
 
