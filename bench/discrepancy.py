@@ -257,8 +257,9 @@ def _open_world_cases() -> dict:
                           lambda e: e["ring_hz"]),
         "clock scale": ([{"clock": v} for v in (1.01, 1.03, 1.1)], "clock_scale",
                         lambda e: e["clock"]),
-        "eccentric spool (outside)": ([{"eccentricity": v, "spool_radius_mm": 1.0}
-                                       for v in (0.05, 0.1, 0.2)], "unexplained", None),
+        "eccentric spool": ([{"eccentricity": v, "spool_radius_mm": 1.0}
+                             for v in (0.05, 0.1, 0.2)], "drive_ripple_mm",
+                            lambda e: e["eccentricity"] * e["spool_radius_mm"]),
         "dead band (outside)": ([{"dead_band_deg": v} for v in (0.5, 1.0, 2.0)],
                                 "unexplained", None),
         "Coulomb friction (outside)": ([{"ring_hz": 3.0, "coulomb_rad_s2": v}

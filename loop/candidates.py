@@ -47,9 +47,10 @@ class Candidate:
     separated_by: str = ""
     also_looks_like: str = ""
     #: Where the fit has a valley per class of motion (dry friction: one per number of
-    #: swings before the crank sticks), the range (in the first parameter's unit) its
-    #: first parameter is profiled over before the fit; a data guess narrows it.
-    scan: tuple[float, float] | None = None
+    #: swings before the crank sticks; a ripple: one per number of cycles), the
+    #: parameter profiled over before the fit and its range (in its unit); a data guess
+    #: of it narrows the range.
+    scan: tuple[str, float, float] | None = None
 
 
 #: Base parameters of the spool model, named as ``--known`` takes them.
@@ -100,6 +101,20 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
               also_looks_like="a compliant mounting of the spool or the pivot; a stiffer "
               "(steel) wire, or a lighter return spring, shrinks a wire stretch and nothing "
               "else"),
+    Candidate("drive_ripple_mm", "physical",
+              (Parameter("drive_ripple_mm", "mm", 0.0, 5.0),
+               # A turn longer than a few strokes is a bend, not a ripple: it would
+               # stand in for slack or growth (it did, at 296 mm, on a slack of 1 mm).
+               Parameter("ripple_turn_mm", "mm", 1.0, 50.0),
+               Parameter("ripple_phase_deg", "deg", -360.0, 720.0)),
+              ((0.05, 10.0, 0.0), (0.05, 10.0, 90.0)), 0.0, (0.0, 5.0),
+              "the wire's speed ripples once per spool turn (an off-centre spool or a "
+              "wobbling servo horn): ω wobbles while the drive runs, at the turn rate, and "
+              "nowhere else",
+              also_looks_like="a servo whose speed wavers with its own control loop (a "
+              "ripple not at the turn rate); mark the spool's rim and count turns to check "
+              "that ripple_turn_mm is one turn's wire (2π × the spool radius)",
+              scan=("ripple_turn_mm", 2.0, 50.0)),
     Candidate("clock_scale", "recording", (Parameter("clock_scale", "1", 0.2, 5.0),),
               ((1.02,), (0.98,)), 1.0, (0.2, 5.0),
               "every rate is off by one factor: the container's frame rate is not the "
@@ -198,7 +213,7 @@ DYNAMIC_CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
               also_looks_like="stiction in a bearing or a rubbing marker; a swing started "
               "from a larger angle separates it from extra viscous damping (dry friction "
               "costs the same angle per swing whatever the amplitude)",
-              scan=(0.01, 30.0)),
+              scan=("coulomb_rad_s2", 0.01, 30.0)),
 )}
 
 

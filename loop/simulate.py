@@ -53,7 +53,10 @@ def spool_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[n
                          growth_per_s=v.get("spool_growth_per_s", 0.0),
                          ring_hz=v.get("return_spring_hz", 0.0),
                          ring_zeta=v.get("return_spring_zeta", 0.1), rates=False,
-                         stretch_mm=v.get("wire_stretch_mm", 0.0))[0]
+                         stretch_mm=v.get("wire_stretch_mm", 0.0),
+                         ripple_mm=v.get("drive_ripple_mm", 0.0),
+                         ripple_turn_mm=v.get("ripple_turn_mm", 10.0),
+                         ripple_phase_deg=v.get("ripple_phase_deg", 0.0))[0]
     if not np.all(np.isfinite(theta)):
         raise CranktrackError("the linkage does not close for these values")
     return theta

@@ -9,10 +9,12 @@ stop are an effect the model lacks, thesis Fig. 2.36).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import brentq
 from scipy.signal import lfilter
 
 from ..errors import CranktrackError
@@ -132,9 +134,23 @@ def crank_inertia(theta: NDArray[np.float64], dt_s: float, hz: float, zeta: floa
     return theta[0] + lfilter(wn**2 * np.array([1.0, 2.0, 1.0]), den, u)
 
 
+def _first_reach(wound: Callable[[NDArray], NDArray], stroke_mm: float, near_s: float,
+                 period_s: float) -> float:
+    """The first drive time (s) at which ``wound`` reaches ``stroke_mm``: a rippled
+    wound length (ripple period ``period_s``) need not rise monotonically, so it is
+    sought on a grid of 1/40 period to twice ``near_s``, then refined by Brent's method."""
+    grid = np.linspace(0.0, 2.0 * near_s + 1e-9, int(80.0 * near_s / period_s) + 64)
+    over = np.flatnonzero(wound(grid) >= stroke_mm)
+    if over.size == 0 or over[0] == 0:
+        return near_s
+    return float(brentq(lambda s: float(wound(np.array(s))) - stroke_mm,
+                        float(grid[over[0] - 1]), float(grid[over[0]]), xtol=1e-12))
+
+
 def spool_motion(drive: SpoolDrive, t_s: ArrayLike, slack_mm: float = 0.0,
                  growth_per_s: float = 0.0, ring_hz: float = 0.0, ring_zeta: float = 0.1,
-                 rates: bool = True, stretch_mm: float = 0.0
+                 rates: bool = True, stretch_mm: float = 0.0, ripple_mm: float = 0.0,
+                 ripple_turn_mm: float = 10.0, ripple_phase_deg: float = 0.0
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """θ, ω, α (rad, rad/s, rad/s²) of the spool bed with effects the plain model lacks.
 
@@ -147,23 +163,37 @@ def spool_motion(drive: SpoolDrive, t_s: ArrayLike, slack_mm: float = 0.0,
     plain model. ``rates=False`` skips ω and α (returned as NaN) for a fit
     that needs only θ, at a third of the cost. ``stretch_mm``: the wire
     stretches under the return spring (:func:`stretched_theta`); then only θ is
-    given and ω, α are NaN (difference θ(t) for them).
+    given and ω, α are NaN (difference θ(t) for them). ``ripple_mm``: the spool
+    turns off-centre by this much, so the wound length gains
+    ``ripple·(cos φ0 − cos(φ0 + 2π·wound/ripple_turn_mm))`` (φ0 =
+    ``ripple_phase_deg``, the spool's angle at the start; ``ripple_turn_mm`` the
+    wire one turn winds): the wire's speed ripples once per spool turn; the drive
+    still stops when ``stroke_mm`` is wound.
     """
     t = np.asarray(t_s, dtype=float)
     d, g = drive, growth_per_s
     if not 0 <= slack_mm < d.stroke_mm:
         raise CranktrackError(f"slack_mm must be at least 0 and below the stroke "
                               f"({d.stroke_mm} mm)")
-    tau_stop = (d.stroke_mm / d.speed_mm_s if g == 0
-                else float((-1.0 + np.sqrt(1.0 + 2.0 * g * d.stroke_mm / d.speed_mm_s)) / g))
+    k, phi0 = 2.0 * np.pi * d.speed_mm_s / ripple_turn_mm, np.radians(ripple_phase_deg)
 
     def wound(tau: NDArray) -> NDArray:
-        return d.speed_mm_s * (tau + 0.5 * g * tau**2)
+        out = d.speed_mm_s * (tau + 0.5 * g * tau**2)
+        if ripple_mm:  # the spool's turn goes with time, not with what it has wound
+            out = out + ripple_mm * (np.cos(phi0) - np.cos(phi0 + k * tau))
+        return out
+
+    tau_stop = (d.stroke_mm / d.speed_mm_s if g == 0
+                else float((-1.0 + np.sqrt(1.0 + 2.0 * g * d.stroke_mm / d.speed_mm_s)) / g))
+    if ripple_mm:
+        tau_stop = _first_reach(wound, d.stroke_mm, tau_stop, ripple_turn_mm / d.speed_mm_s)
 
     def slider(tau: NDArray, moving: NDArray) -> SliderState:
         L3 = d.L3_0 - np.maximum(wound(tau) - slack_mm, 0.0)
-        rate = np.where(moving, -d.speed_mm_s * (1.0 + g * tau), 0.0)
-        return SliderState(L3, rate, np.where(moving, -d.speed_mm_s * g, 0.0))
+        ripple = ripple_mm * k * np.sin(phi0 + k * tau)
+        rate = np.where(moving, -d.speed_mm_s * (1.0 + g * tau) - ripple, 0.0)
+        accel = -d.speed_mm_s * g - ripple_mm * k**2 * np.cos(phi0 + k * tau)
+        return SliderState(L3, rate, np.where(moving, accel, 0.0))
 
     tau = np.clip(t - d.start_s, 0.0, tau_stop)
     moving = (t > d.start_s) & (t < d.start_s + tau_stop) & (wound(tau) > slack_mm)

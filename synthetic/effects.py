@@ -62,7 +62,7 @@ EFFECTS: dict[str, EffectInfo] = {
     "spool_eccentricity": EffectInfo(
         "physical", "1",
         "the spool turns off-centre, so the wire's speed ripples by ± this fraction once per "
-        "spool turn (not in the fitter's library: it must come out unexplained)"),
+        "spool turn (the fitter's drive_ripple_mm: offset = this × the spool radius)"),
     "dead_band_deg": EffectInfo(
         "physical", "deg",
         "play between the wire and the crank: the wire closes this angle before the crank "

@@ -12,8 +12,9 @@ Where the physics admits two forms, both are here: slack as lost stroke
 (``slack_mm``) and as a pure delay (``delay_s``); friction as a dead band
 (``dead_band_deg``) and as a Coulomb torque in the equation of motion
 (``coulomb_rad_s2``, with ``ring_hz`` giving the crank its inertia). An eccentric
-spool (``eccentricity``) is an effect the fitter's library does not have: it
-must come out as "unexplained", never under another effect's name.
+spool (``eccentricity``) is the fitter's ``drive_ripple_mm``, written here as the
+spool's geometry; a dead band (``dead_band_deg``) is not in the fitter's library:
+it must come out as "unexplained", never under another effect's name.
 
 Lengths in mm, angles in rad, times in s (the video's clock, unless said).
 """
@@ -69,7 +70,7 @@ class SpoolBed:
     - ``wire_diameter_mm``: each turn lays wire on the last, so the radius, and the
       wire's speed, grow (:attr:`growth_per_s` is the same as a rate);
     - ``eccentricity``: the spool turns off-centre, so the wire's speed ripples by
-      ± this fraction once per spool turn (not in the fitter's library);
+      ± this fraction once per spool turn;
     - ``stretch_mm``: the wire is elastic and stretched this much at rest by the
       torsion spring, pre-wound one turn past the rest angle;
     - ``ring_hz``, ``ring_zeta``: the crank has inertia; held by the wire's and the
