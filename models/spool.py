@@ -188,12 +188,17 @@ def spool_motion(drive: SpoolDrive, t_s: ArrayLike, slack_mm: float = 0.0,
     if ripple_mm:
         tau_stop = _first_reach(wound, d.stroke_mm, tau_stop, ripple_turn_mm / d.speed_mm_s)
 
+    def length(tau: NDArray) -> NDArray:  # L3 (mm), all a θ-only fit needs
+        return d.L3_0 - np.maximum(wound(tau) - slack_mm, 0.0)
+
     def slider(tau: NDArray, moving: NDArray) -> SliderState:
-        L3 = d.L3_0 - np.maximum(wound(tau) - slack_mm, 0.0)
-        ripple = ripple_mm * k * np.sin(phi0 + k * tau)
-        rate = np.where(moving, -d.speed_mm_s * (1.0 + g * tau) - ripple, 0.0)
-        accel = -d.speed_mm_s * g - ripple_mm * k**2 * np.cos(phi0 + k * tau)
-        return SliderState(L3, rate, np.where(moving, accel, 0.0))
+        L3 = length(tau)
+        rate = -d.speed_mm_s * (1.0 + g * tau)
+        accel = np.full_like(tau, -d.speed_mm_s * g)
+        if ripple_mm:
+            rate = rate - ripple_mm * k * np.sin(phi0 + k * tau)
+            accel = accel - ripple_mm * k**2 * np.cos(phi0 + k * tau)
+        return SliderState(L3, np.where(moving, rate, 0.0), np.where(moving, accel, 0.0))
 
     tau = np.clip(t - d.start_s, 0.0, tau_stop)
     moving = (t > d.start_s) & (t < d.start_s + tau_stop) & (wound(tau) > slack_mm)
@@ -201,7 +206,7 @@ def spool_motion(drive: SpoolDrive, t_s: ArrayLike, slack_mm: float = 0.0,
         state = crank_state(d.bed, slider(tau, moving))
         theta, omega, alpha = state.theta.copy(), state.omega.copy(), state.alpha.copy()
     else:
-        theta = d.bed.theta(slider(tau, moving).L3)
+        theta = d.bed.theta(length(tau))
         omega = alpha = np.full_like(theta, np.nan)
     if ring_hz > 0:
         # The crank's inertia: its massless angle on a grid fine beside the ring's
@@ -209,8 +214,7 @@ def spool_motion(drive: SpoolDrive, t_s: ArrayLike, slack_mm: float = 0.0,
         step = min(0.025 / ring_hz, 2e-3)
         grid = np.arange(min(float(t.min()), d.start_s) - step, float(t.max()) + 2 * step, step)
         g_tau = np.clip(grid - d.start_s, 0.0, tau_stop)
-        g_moving = (grid > d.start_s) & (grid < d.start_s + tau_stop)
-        massless = d.bed.theta(slider(g_tau, g_moving).L3)
+        massless = d.bed.theta(length(g_tau))
         theta = np.interp(t, grid, crank_inertia(massless, step, ring_hz, ring_zeta))
         omega = alpha = np.full_like(theta, np.nan)
     if stretch_mm > 0:
