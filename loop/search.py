@@ -358,6 +358,7 @@ class _Fitter:
         profile.sort(key=lambda p: p[0])
         return [x for _, x in profile[:2]]
 
+
 def _judge_noise(fitter: _Fitter, base: ModelFit, tryable: list[Candidate],
                  tracker_deg: float, links: NDArray | None, theta_deg: NDArray) -> NoiseModel:
     """The noise every candidate is judged against, with its count of independent frames.
