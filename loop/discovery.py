@@ -30,20 +30,19 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .evidence import BIC_THRESHOLD, effective_samples
+from .evidence import BIC_THRESHOLD, effective_samples, model_motion
 
-#: Term → (unit of its coefficient, how it reads in the equation).
+#: Term → how it reads in the equation (the coefficient's unit is in it); the ripple's
+#: sine and cosine are read together as one amplitude and phase.
 TERMS = {
-    "offset": ("°", "{c}°"),
-    "after start": ("°", "{c}°·[t ≥ {t0:.3g} s]"),
-    "theta": ("°/°", "{c}·(θ − {mean:.4g}°)"),
-    "theta^2": ("1/°", "{c}·(θ − {mean:.4g}°)²"),
-    "omega": ("s", "{c} s·ω"),
-    "alpha": ("s²", "{c} s²·α"),
-    "sign(omega)": ("°", "{c}°·sign(ω)"),
-    "time": ("°/s", "{c}°/s·(t − {t_first:.3g} s)"),
-    "ripple sin": ("°", ""),
-    "ripple cos": ("°", ""),
+    "offset": "{c}°",
+    "after start": "{c}°·[t ≥ {t0:.3g} s]",
+    "theta": "{c}·(θ − {mean:.4g}°)",
+    "theta^2": "{c}·(θ − {mean:.4g}°)²",
+    "omega": "{c} s·ω",
+    "alpha": "{c} s²·α",
+    "sign(omega)": "{c}°·sign(ω)",
+    "time": "{c}°/s·(t − {t_first:.3g} s)",
 }
 
 
@@ -92,10 +91,8 @@ def library(t_s: NDArray, model_deg: NDArray, ripple_hz: float | None = None,
     """
     t = np.asarray(t_s, float)
     m = np.asarray(model_deg, float)
-    omega = np.gradient(m, t)
+    omega, moving = model_motion(m, t)
     alpha = np.gradient(omega, t)
-    top = float(np.max(np.abs(omega))) if omega.size else 0.0
-    moving = np.abs(omega) > 1e-6 * max(top, 1e-12)
     first = int(np.argmax(moving)) if moving.any() else 0
     mean = float(m.mean())
     cols = {"offset": np.ones_like(t), "theta": m - mean, "theta^2": (m - mean) ** 2,
@@ -193,7 +190,7 @@ def equation(terms: dict[str, float], consts: dict) -> str:
     for name, c in terms.items():
         if name.startswith("ripple"):
             continue
-        parts.append(TERMS[name][1].format(c=f"{c:+.3g}", **consts))
+        parts.append(TERMS[name].format(c=f"{c:+.3g}", **consts))
     if sin or cos:
         amp, phase = float(np.hypot(sin, cos)), float(np.degrees(np.arctan2(cos, sin)))
         gate = "·[while moving]" if consts["while_moving"] else ""

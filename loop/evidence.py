@@ -52,6 +52,15 @@ def effective_samples(residual: NDArray[np.float64]) -> float:
     return max(n * (1.0 - rho) / (1.0 + rho), 3.0)
 
 
+def model_motion(model: NDArray[np.float64], t: NDArray[np.float64]
+                 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """A model's rate (its unit per s) and the frames where it moves: a rate above a
+    millionth of its largest (a kinked drive's rest frames are not quite zero)."""
+    rate = np.gradient(model, t)
+    top = float(np.max(np.abs(rate))) if rate.size else 0.0
+    return rate, np.abs(rate) > 1e-6 * max(top, 1e-12)
+
+
 def still_segments(model: NDArray[np.float64], tol: float = 1e-9) -> tuple[NDArray, int]:
     """Frames where the modelled mechanism stands still, and how many still stretches.
 
@@ -173,8 +182,7 @@ def diagnose(fit: ModelFit, measured_deg: NDArray[np.float64], t: NDArray[np.flo
     """
     r = np.degrees(fit.residual)
     model_deg = np.degrees(fit.model)
-    omega = np.gradient(fit.model, t)
-    moving = np.abs(omega) > 1e-6 * max(float(np.max(np.abs(omega))), 1e-12)
+    omega, moving = model_motion(fit.model, t)
     series = {"time": t, "theta": model_deg, "omega": omega, "sign(omega)": np.sign(omega),
               **(context or {})}
     corr = {}

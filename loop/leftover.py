@@ -24,6 +24,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from .evidence import model_motion
+
 
 def _share(r: NDArray, columns: list[NDArray]) -> tuple[float, NDArray]:
     """Share of ``r``'s variance a least-squares fit on ``columns`` (plus a constant)
@@ -65,9 +67,7 @@ def signature(t_s: NDArray, residual_deg: NDArray, model_deg: NDArray,
     t = np.asarray(t_s, float)
     r = np.asarray(residual_deg, float)
     model = np.asarray(model_deg, float)
-    omega = np.gradient(model, t)  # deg/s
-    top = float(np.max(np.abs(omega))) if omega.size else 0.0
-    moving = np.abs(omega) > 1e-6 * max(top, 1e-12)
+    omega, moving = model_motion(model, t)  # deg/s
     shapes: list[dict] = []
 
     # A ripple lives while the drive moves and often rides on a lag (the base fit
