@@ -181,14 +181,15 @@ def test_start_and_end_limit_the_frames_tracked(tmp_path, capsys):
 
 
 def draw_atom(x: float, y: float, r: float, stalk_deg: float, twin=None, seed=0,
-              size=(240, 180)) -> np.ndarray:
-    """A shaded cyan sphere (Lambert light from the upper left, as Jmol draws atoms) on
-    a stalk of its own colour (a bond) leaving it at ``stalk_deg``, on black; ``twin``
-    (x, y) draws a second sphere of the same colour and size there. 8×8 sub-samples."""
+              size=(240, 180), colour=(40.0, 230.0, 220.0)) -> np.ndarray:
+    """A shaded sphere of ``colour`` (cyan by default; Lambert light from the upper
+    left, as Jmol draws atoms) on a stalk of its own colour (a bond) leaving it at
+    ``stalk_deg``, on black; ``twin`` (x, y) draws a second sphere of the same colour
+    and size there. 8×8 sub-samples."""
     w, h = size
     sub = 8
     yy, xx = (np.mgrid[0:h * sub, 0:w * sub] + 0.5) / sub - 0.5
-    colour = np.array([40.0, 230.0, 220.0])
+    colour = np.asarray(colour, float)
     image = np.zeros((h * sub, w * sub, 3))
     light = np.array([-0.4, -0.5, 0.77]) / np.linalg.norm([-0.4, -0.5, 0.77])
     a = np.radians(stalk_deg)
@@ -302,3 +303,14 @@ def test_no_row_is_ok_with_a_scatter_as_large_as_the_marker():
     assert tracks["steady_ok"].all()
     # The floor is the scatter drawn, not the fits' 0.1 px.
     assert 0.2 < tracks["steady_sigma_px"].median() < 0.45
+
+
+def test_the_crank_sliders_flat_markers_are_never_taken_from_a_shaded_ball():
+    # A, B and C are printed discs: a shaded ball of C's colour (a sign, a sleeve on a
+    # real clip) is not C, while the same ball named as a marker of its own is found.
+    image = draw_atom(90.3, 70.6, 12.0, 100.0, colour=(40.0, 70.0, 230.0))
+    as_default = locate(image).set_index("marker")
+    assert as_default.at["C", "status"] != "ok"
+    named = locate(image, parse_markers(["ball=blue@90,70"])).set_index("marker")
+    assert named.at["ball", "status"] == "ok"
+    assert np.hypot(named.at["ball", "x_px"] - 90.3, named.at["ball", "y_px"] - 70.6) < 0.3

@@ -21,6 +21,7 @@ import math
 
 import cv2
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
 from .centre import Centre
@@ -102,26 +103,44 @@ def rim_points(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float]
                   borderMode=cv2.BORDER_CONSTANT, borderValue=np.nan)
     drop = np.full_like(a, np.nan)
     drop[:, half:-half] = a[:, :-2 * half] - a[:, 2 * half:]  # fall over 2 px, centred
-    points = []
+    r = _rim_radii(drop, reach, peak, half)
+    keep = np.isfinite(r)
+    return np.column_stack([x0 + cx + r[keep] * dx[keep, 0], y0 + cy + r[keep] * dy[keep, 0]])
+
+
+@njit(cache=True, nogil=True)
+def _rim_radii(drop: NDArray, reach: NDArray, peak: float, half: int) -> NDArray:
+    """Per ray (a row of ``drop``, the fall of α over 2 px at each of ``reach``'s
+    samples), the rim's distance from the centre, px, or NaN (see :func:`rim_points`).
+    Compiled: a Python loop over the rays took most of a real clip's tracking time."""
+    rays, n = drop.shape
+    out = np.full(rays, np.nan)
     for k in range(rays):
         d = drop[k]
-        good = np.isfinite(d)
-        if not good.any():
+        strongest = -np.inf
+        for i in range(n):
+            if np.isfinite(d[i]) and d[i] > strongest:
+                strongest = d[i]
+        if not np.isfinite(strongest) or strongest < 0.15 * peak:
             continue
-        strongest = float(np.max(d[good]))
-        if strongest < 0.15 * peak:
-            continue
-        j = int(np.flatnonzero(good & (d >= 0.6 * strongest))[-1])
+        j = -1
+        for i in range(n - 1, -1, -1):
+            if np.isfinite(d[i]) and d[i] >= 0.6 * strongest:
+                j = i
+                break
         # That is on the fall's outer flank: walk in to its top.
         while j > 0 and np.isfinite(d[j - 1]) and d[j - 1] > d[j]:
             j -= 1
-        lo, hi = max(j - half, 0), min(j + half + 1, len(d))
-        wgt = np.where(np.isfinite(d[lo:hi]), np.clip(d[lo:hi], 0.0, None), 0.0)
-        if not wgt.sum() > 0:
-            continue
-        r = float((wgt * reach[lo:hi]).sum() / wgt.sum())
-        points.append((x0 + cx + r * dx[k, 0], y0 + cy + r * dy[k, 0]))
-    return np.asarray(points, np.float64).reshape(-1, 2)
+        lo, hi = max(j - half, 0), min(j + half + 1, n)
+        total = 0.0
+        moment = 0.0
+        for i in range(lo, hi):
+            if np.isfinite(d[i]) and d[i] > 0.0:
+                total += d[i]
+                moment += d[i] * reach[i]
+        if total > 0.0:
+            out[k] = moment / total
+    return out
 
 
 #: Triples of rim points tried for the least-median start; fixed, so that a frame
@@ -129,28 +148,42 @@ def rim_points(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float]
 _TRIPLES = np.random.default_rng(0).random((96, 3))
 
 
+@njit(cache=True, nogil=True)
 def _least_median_circle(points: NDArray) -> NDArray[np.float64]:
     """(cx, cy, R) of the circle through three of the points whose median
-    distance to all points is smallest (least median of squares)."""
+    distance to all points is smallest (least median of squares). Compiled, as
+    :func:`_reweighted_circle`."""
     n = len(points)
-    idx = np.minimum((_TRIPLES * n).astype(int), n - 1)
-    a, b, c = points[idx[:, 0]], points[idx[:, 1]], points[idx[:, 2]]
-    # The circumcentre of each triple (collinear or repeated triples drop out).
-    d = 2 * (a[:, 0] * (b[:, 1] - c[:, 1]) + b[:, 0] * (c[:, 1] - a[:, 1])
-             + c[:, 0] * (a[:, 1] - b[:, 1]))
-    sa, sb, sc = (v[:, 0] ** 2 + v[:, 1] ** 2 for v in (a, b, c))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ux = (sa * (b[:, 1] - c[:, 1]) + sb * (c[:, 1] - a[:, 1]) + sc * (a[:, 1] - b[:, 1])) / d
-        uy = (sa * (c[:, 0] - b[:, 0]) + sb * (a[:, 0] - c[:, 0]) + sc * (b[:, 0] - a[:, 0])) / d
-    r = np.hypot(a[:, 0] - ux, a[:, 1] - uy)
-    res = np.abs(np.hypot(points[None, :, 0] - ux[:, None], points[None, :, 1] - uy[:, None])
-                 - r[:, None])
-    med = np.where(np.isfinite(r) & (np.abs(d) > 1e-6), np.median(res, axis=1), np.inf)
-    k = int(np.argmin(med))
-    if not np.isfinite(med[k]):
-        cx, cy = points.mean(axis=0)
-        return np.array([cx, cy, float(np.mean(np.hypot(*(points - (cx, cy)).T)))])
-    return np.array([ux[k], uy[k], r[k]])
+    best, out = np.inf, np.empty(3)
+    res = np.empty(n)
+    for t in range(len(_TRIPLES)):
+        i = min(int(_TRIPLES[t, 0] * n), n - 1)
+        j = min(int(_TRIPLES[t, 1] * n), n - 1)
+        k = min(int(_TRIPLES[t, 2] * n), n - 1)
+        ax, ay = points[i, 0], points[i, 1]
+        bx, by = points[j, 0], points[j, 1]
+        cx, cy = points[k, 0], points[k, 1]
+        # The circumcentre of the triple (collinear or repeated triples drop out).
+        d = 2 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by))
+        if not abs(d) > 1e-6:
+            continue
+        sa, sb, sc = ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy
+        ux = (sa * (by - cy) + sb * (cy - ay) + sc * (ay - by)) / d
+        uy = (sa * (cx - bx) + sb * (ax - cx) + sc * (bx - ax)) / d
+        r = math.hypot(ax - ux, ay - uy)
+        if not np.isfinite(r):
+            continue
+        for m in range(n):
+            res[m] = abs(math.hypot(points[m, 0] - ux, points[m, 1] - uy) - r)
+        med = np.median(res)
+        if med < best:
+            best = med
+            out[0], out[1], out[2] = ux, uy, r
+    if not np.isfinite(best):
+        mx, my = np.mean(points[:, 0]), np.mean(points[:, 1])
+        out[0], out[1] = mx, my
+        out[2] = np.mean(np.sqrt((points[:, 0] - mx) ** 2 + (points[:, 1] - my) ** 2))
+    return out
 
 
 def fit_circle(points: NDArray, iterations: int = 20
@@ -164,25 +197,10 @@ def fit_circle(points: NDArray, iterations: int = 20
     1.4826·MAD (at least :data:`MIN_SCALE_PX`), follow. The covariance is
     s²·(JᵀWJ)⁻¹ with s² the weighted residual variance.
     """
-    x, y = points[:, 0], points[:, 1]
-    p = _least_median_circle(points)
-    wts = np.ones(len(x))
-    for _ in range(iterations):
-        ex, ey = x - p[0], y - p[1]
-        rho = np.maximum(np.hypot(ex, ey), 1e-9)
-        res = rho - p[2]
-        scale = max(1.4826 * float(np.median(np.abs(res - np.median(res)))), MIN_SCALE_PX)
-        u = res / (TUKEY_C * scale)
-        wts = np.where(np.abs(u) < 1, (1 - u**2) ** 2, 0.0)
-        J = np.column_stack([-ex / rho, -ey / rho, -np.ones_like(x)])
-        JtW = J.T * wts
-        try:
-            step = np.linalg.solve(JtW @ J, -JtW @ res)
-        except np.linalg.LinAlgError:
-            break
-        p = p + step
-        if np.hypot(step[0], step[1]) < 1e-4:
-            break
+    x = np.ascontiguousarray(points[:, 0], np.float64)
+    y = np.ascontiguousarray(points[:, 1], np.float64)
+    p, wts = _reweighted_circle(
+        x, y, _least_median_circle(np.ascontiguousarray(points, np.float64)), iterations)
     ex, ey = x - p[0], y - p[1]
     rho = np.maximum(np.hypot(ex, ey), 1e-9)
     res = rho - p[2]
@@ -194,6 +212,60 @@ def fit_circle(points: NDArray, iterations: int = 20
     except np.linalg.LinAlgError:
         cov = np.full((3, 3), np.nan)
     return p, cov, wts
+
+
+@njit(cache=True, nogil=True)
+def _solve3(A: NDArray, b: NDArray) -> NDArray:
+    """A⁻¹b for a 3×3 A by Cramer's rule; NaN where A is singular."""
+    det = (A[0, 0] * (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])
+           - A[0, 1] * (A[1, 0] * A[2, 2] - A[1, 2] * A[2, 0])
+           + A[0, 2] * (A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]))
+    out = np.full(3, np.nan)
+    if det == 0.0 or not np.isfinite(det):
+        return out
+    for c in range(3):
+        M = A.copy()
+        M[:, c] = b
+        out[c] = (M[0, 0] * (M[1, 1] * M[2, 2] - M[1, 2] * M[2, 1])
+                  - M[0, 1] * (M[1, 0] * M[2, 2] - M[1, 2] * M[2, 0])
+                  + M[0, 2] * (M[1, 0] * M[2, 1] - M[1, 1] * M[2, 0])) / det
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _reweighted_circle(x: NDArray, y: NDArray, p0: NDArray, iterations: int
+                       ) -> tuple[NDArray, NDArray]:
+    """The Gauss–Newton / Tukey-biweight iterations of :func:`fit_circle` from
+    ``p0`` (cx, cy, R): the circle and the last weights. Compiled: two medians and a
+    solve per iteration, a few hundred times a frame on a clip full of false blobs."""
+    n = len(x)
+    p = p0.copy()
+    wts = np.ones(n)
+    res = np.empty(n)
+    J = np.empty((n, 3))
+    for _ in range(iterations):
+        for i in range(n):
+            ex, ey = x[i] - p[0], y[i] - p[1]
+            rho = max(math.hypot(ex, ey), 1e-9)
+            res[i] = rho - p[2]
+            J[i, 0], J[i, 1], J[i, 2] = -ex / rho, -ey / rho, -1.0
+        scale = max(1.4826 * np.median(np.abs(res - np.median(res))), MIN_SCALE_PX)
+        A = np.zeros((3, 3))
+        g = np.zeros(3)
+        for i in range(n):
+            u = res[i] / (TUKEY_C * scale)
+            wts[i] = (1 - u * u) ** 2 if abs(u) < 1 else 0.0
+            for a in range(3):
+                g[a] -= J[i, a] * wts[i] * res[i]
+                for b in range(3):
+                    A[a, b] += J[i, a] * wts[i] * J[i, b]
+        step = _solve3(A, g)
+        if not np.all(np.isfinite(step)):
+            break
+        p += step
+        if math.hypot(step[0], step[1]) < 1e-4:
+            break
+    return p, wts
 
 
 def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],

@@ -136,7 +136,7 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
     luminance = bool(state.spec.tone)
     centre, seen = refine(frame, (blob.x, blob.y), radius, state.marker, luminance=luminance,
                           rim=state.rim)
-    if state.rim is None and centre.ok:
+    if (state.rim is None or state.spec.flat) and centre.ok:
         # A flat marker's coverage is even over its middle; a shaded ball's falls
         # away from the light, and pulls a disc fit toward it: that one is centred
         # by its rim from now on (decided once, so that a flat marker partly hidden
@@ -144,12 +144,26 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
         patch, x0, y0 = patch_around(frame, centre.x, centre.y, centre.radius + 9)
         alpha, _ = local_coverage(patch, x0, y0, (centre.x, centre.y), centre.radius,
                                   state.marker, luminance)
-        state.rim = shaded(alpha, x0, y0, (centre.x, centre.y), centre.radius)
+        ball = shaded(alpha, x0, y0, (centre.x, centre.y), centre.radius)
+        if state.spec.flat:
+            # One of the crank-slider's printed discs is never a ball: a shaded
+            # blob of its colour (a sleeve, a sign) is something else, and its disc
+            # fit would be pulled toward the light by pixels with a small σ.
+            if ball:
+                return None, None, "rejected"
+            return _whole_and_honest(state, centre, seen)
+        state.rim = ball
         if state.rim and not centre.rim:
             centre, seen = refine(frame, (centre.x, centre.y), radius, state.marker,
                                   luminance=luminance, rim=True)
         elif not state.rim and centre.rim:
             return None, None, "refine_failed"  # a flat marker's disc fit failed
+    return _whole_and_honest(state, centre, seen)
+
+
+def _whole_and_honest(state: MarkerState, centre: Centre, seen: NDArray | None
+                      ) -> tuple[Centre | None, NDArray | None, str]:
+    """The centre if its fit is sound and shows the whole marker, else why not."""
     if not centre.ok or not _honest(centre) or (
             state.marker is not None and not GAIN_RANGE[0] < centre.gain < GAIN_RANGE[1]):
         return None, None, "refine_failed"
@@ -255,7 +269,8 @@ class TrackerState:
     @classmethod
     def start(cls, specs: Sequence[MarkerSpec] = DEFAULT_MARKERS) -> TrackerState:
         """The state before the first frame: nothing learned yet."""
-        return cls([MarkerState(spec) for spec in specs], {"gains": None}, [])
+        return cls([MarkerState(spec, rim=False if spec.flat else None) for spec in specs],
+                   {"gains": None}, [])
 
     def radii(self) -> dict[str, float | None]:
         """Each marker's radius as first fitted, px (None where never found)."""
