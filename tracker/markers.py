@@ -199,7 +199,10 @@ def find_blobs(hsv: NDArray[np.uint8], spec: MarkerSpec, x0: int = 0, y0: int = 
         w, h = stats[k, cv2.CC_STAT_WIDTH], stats[k, cv2.CC_STAT_HEIGHT]
         blob = Blob(float(centroids[k][0]) + x0, float(centroids[k][1]) + y0, area,
                     area / float(w * h), float(w) / float(h))
-        if not blob.disc_like():
+        # The largest disc a w×h box holds has a radius of about min(w, h)/2 (+1 as
+        # _core measures it): where that cannot fill CORE_FRACTION of the blob, it
+        # has no core (most blobs of a busy real frame) and needs no distance map.
+        if not blob.disc_like() and np.pi * (0.5 * min(w, h) + 1.5) ** 2 >= CORE_FRACTION * area:
             if dist is None:
                 dist = cv2.distanceTransform(mask, cv2.DIST_L2, 5)
             blob = _core(blob, labels, dist, k, stats[k], x0, y0)
