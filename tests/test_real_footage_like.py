@@ -314,3 +314,23 @@ def test_the_crank_sliders_flat_markers_are_never_taken_from_a_shaded_ball():
     named = locate(image, parse_markers(["ball=blue@90,70"])).set_index("marker")
     assert named.at["ball", "status"] == "ok"
     assert np.hypot(named.at["ball", "x_px"] - 90.3, named.at["ball", "y_px"] - 70.6) < 0.3
+
+
+def test_a_marker_first_seen_as_a_speck_is_learned_at_its_real_size():
+    # The first frame shows the sticker as a 2.5 px speck (a still, half in shadow);
+    # from then on it is 7 px. Learned from the first frame alone, every later view
+    # was rejected as too big.
+    state = TrackerState.start(parse_markers(["sticker=red@60,90"]))
+    statuses, errors = [], []
+    for k in range(12):
+        x, y = 60.0 + 2.3 * k, 90.0 - 1.1 * k
+        radius = 2.5 if k == 0 else 7.0
+        image = draw([(x, y, radius, (220.0, 40.0, 40.0))], background=(150.0, 150.0, 145.0),
+                     seed=k)
+        row = locate(image, state=state, t_s=k / 30).set_index("marker").loc["sticker"]
+        statuses.append(row["status"])
+        if row["status"] == "ok":
+            errors.append(np.hypot(row["x_px"] - x, row["y_px"] - y))
+    assert statuses[1:].count("ok") == 11, statuses
+    assert max(errors) < 0.1, errors
+    assert 6.5 < state.markers[0].radius < 7.5

@@ -18,6 +18,13 @@ RESIDUAL_LIMIT = 1.6
 #: fraction is not whole (partly covered), or not alone.
 AREA_TOLERANCE = 0.2
 
+#: A marker's size is learned over the first this many frames it is found in, not
+#: from the first alone: on a real clip the first frame was a still in which a
+#: sticker showed as a 2 px speck, and every later (whole) view of it was then
+#: rejected as too big. Until then its size gates blobs loosely and its look not at
+#: all.
+LEARN_FINDS = 5
+
 @dataclass
 class MarkerState:
     """What the tracker remembers of one marker from frame to frame: what it looks
@@ -37,16 +44,33 @@ class MarkerState:
     residual: float | None = None  # usual RMS residual of the disc fit
     area_alpha: float | None = None  # usual visible area Σα, px²
     notes: list[str] = field(default_factory=list)  # things the user should hear about
+    radii_seen: list[float] = field(default_factory=list)  # fitted radii while learning, px
+
+    @property
+    def learning(self) -> bool:
+        """Still learning the marker's size (found in fewer than :data:`LEARN_FINDS`
+        frames)?"""
+        return len(self.radii_seen) < LEARN_FINDS
 
     @property
     def area(self) -> float | None:
         """The marker's expected blob area, px² (from its radius)."""
         return None if self.radius is None else float(np.pi * self.radius**2)
 
+    @property
+    def area_gates(self) -> tuple[tuple[float, float], ...]:
+        """The blob areas a whole-frame search takes for the marker, as multiples of
+        :attr:`area`, each gate tried only when nothing passed the one before:
+        0.3–3, and while its size is being learned 0.1–10 after that (a 2.5 px speck
+        that is a 7 px disc later passes; a 0.5 px glint beside a 4.5 px ball does
+        not, and a hand 4× the ball's area loses to the ball far off)."""
+        return ((0.3, 3.0), (0.1, 10.0)) if self.learning else ((0.3, 3.0),)
+
     def whole(self, centre: Centre) -> bool:
         """Does the fit look like the whole marker: its usual visible area and residual?
-        (A rim fit has weighed out what covers the marker already.)"""
-        if centre.rim:
+        (A rim fit has weighed out what covers the marker already; while learning,
+        there is no usual yet.)"""
+        if centre.rim or self.learning:
             return True
         if self.area_alpha is not None and np.isfinite(centre.area):
             if not 1 - AREA_TOLERANCE <= centre.area / self.area_alpha <= 1 + AREA_TOLERANCE:
@@ -56,7 +80,13 @@ class MarkerState:
         return centre.rms_residual <= RESIDUAL_LIMIT * max(self.residual, 0.01)
 
     def remember(self, centre: Centre, seen: NDArray | None) -> None:
-        """Keep the fitted shape and follow slow drift of the marker's colour."""
+        """Keep the fitted shape and follow slow drift of the marker's colour; while
+        learning, its radius is the median of those fitted so far, and its usual
+        residual and area are the latest fit's."""
+        if self.learning and np.isfinite(centre.radius):
+            self.radii_seen.append(centre.radius)
+            self.radius = float(np.median(self.radii_seen))
+            self.residual = self.area_alpha = None
         if np.isfinite(centre.rms_residual):
             self.residual = (centre.rms_residual if self.residual is None
                              else 0.9 * self.residual + 0.1 * centre.rms_residual)

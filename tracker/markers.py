@@ -231,7 +231,8 @@ def _core(blob: Blob, labels: NDArray, dist: NDArray, k: int, box: NDArray,
 
 
 def choose_blob(blobs: list[Blob], expected_area: float | None = None,
-                near: tuple[float, float] | None = None) -> tuple[Blob | None, str]:
+                near: tuple[float, float] | None = None,
+                sizes: tuple[float, float] = (0.3, 3.0)) -> tuple[Blob | None, str]:
     """Pick the marker among candidate blobs; returns ``(blob, status)``.
 
     Blobs must be disc-like and, once the marker's size is known, within
@@ -243,7 +244,8 @@ def choose_blob(blobs: list[Blob], expected_area: float | None = None,
         return None, "not_found"
     good = [b for b in blobs if b.disc_like()]
     if expected_area:
-        good = [b for b in good if 0.3 * expected_area <= b.area <= 3.0 * expected_area]
+        good = [b for b in good
+                if sizes[0] * expected_area <= b.area <= sizes[1] * expected_area]
     if not good:
         return None, "rejected"
     if near is not None:
@@ -283,7 +285,8 @@ def balanced_hsv(rgb: NDArray[np.uint8], gains: NDArray[np.float32] | None) -> N
 
 
 def acquire(hsv: NDArray[np.uint8], spec: MarkerSpec, expected_area: float | None = None,
-            near: tuple[float, float] | None = None
+            near: tuple[float, float] | None = None,
+            gates: tuple[tuple[float, float], ...] = ((0.3, 3.0),)
             ) -> tuple[Blob | None, str, list[Blob]]:
     """Full-frame search for ``spec``'s marker, over a ladder of saturation floors.
 
@@ -298,7 +301,10 @@ def acquire(hsv: NDArray[np.uint8], spec: MarkerSpec, expected_area: float | Non
     for extra in ((0.0,) if spec.tone else (0.0, 0.15, 0.3)):
         floor = min(spec.min_saturation + extra, 0.9)
         blobs += find_blobs(hsv, replace(spec, min_saturation=floor))
-    blob, status = choose_blob(blobs, expected_area, near)
+    for sizes in gates:  # the next, wider gate only when nothing passed the one before
+        blob, status = choose_blob(blobs, expected_area, near, sizes)
+        if blob is not None:
+            break
     rivals: list[Blob] = []
     if blob is not None:
         for b in blobs:

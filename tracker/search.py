@@ -65,7 +65,8 @@ def full_frame_blob(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
                      pred: tuple[float, float] | None) -> tuple[Blob | None, str]:
     """The marker's blob in the whole frame, white-balanced (lost, or never seen)."""
     near = pred if pred is not None else state.spec.near_px
-    blob, status, rivals = acquire(full_hsv(frame, hsv_cache), state.spec, state.area, near)
+    blob, status, rivals = acquire(full_hsv(frame, hsv_cache), state.spec, state.area, near,
+                                   state.area_gates)
     if blob is not None and pred is None and near is not None and np.hypot(
             blob.x - near[0], blob.y - near[1]) > 4 * blob.radius + 20:
         return None, "not_found"  # not yet where the user said it is

@@ -3,7 +3,8 @@
 Each marker is *acquired* by a full-frame colour search (the first frame,
 and again whenever it is lost), then *followed* in a small window around a
 constant-velocity prediction, so most frames touch only a few thousand
-pixels per marker. Its colour window is learned from the first acquisition.
+pixels per marker. Its colour window is learned from the first acquisition,
+its size over the first frames it is found in (:data:`.marker_state.LEARN_FINDS`).
 Every found blob is refined to a sub-pixel centre with a 1-σ
 (:mod:`.refine`). A marker not found is NaN with ``_ok = False`` and a
 ``_status`` that says why; nothing is interpolated.
@@ -126,7 +127,8 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict
 def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
                  ) -> tuple[Centre | None, NDArray | None, str]:
     """The refined centre on a blob, what it saw, and why it failed ("" if it did not)."""
-    radius = state.radius or blob.radius
+    # While its size is being learned, the blob in hand says how big the marker is.
+    radius = blob.radius if state.learning or state.radius is None else state.radius
     if not state.learned:
         # Learning follows a full-frame search, whose white-balanced HSV is at hand.
         hsv_patch, x0, y0 = patch_around(full_hsv(frame, hsv_cache), blob.x, blob.y,
@@ -167,6 +169,9 @@ def _whole_and_honest(state: MarkerState, centre: Centre, seen: NDArray | None
     if not centre.ok or not _honest(centre) or (
             state.marker is not None and not GAIN_RANGE[0] < centre.gain < GAIN_RANGE[1]):
         return None, None, "refine_failed"
+    lo, hi = state.area_gates[-1]
+    if state.radius is not None and not lo <= (centre.radius / state.radius) ** 2 <= hi:
+        return None, None, "rejected"  # a fit of another size: a glint, a neighbour
     if not state.whole(centre):
         return None, None, "partly_covered"
     return centre, seen, ""
