@@ -25,6 +25,7 @@ AREA_TOLERANCE = 0.2
 #: all.
 LEARN_FINDS = 5
 
+
 @dataclass
 class MarkerState:
     """What the tracker remembers of one marker from frame to frame: what it looks

@@ -278,7 +278,8 @@ class TrackerState:
                    {"gains": None}, [])
 
     def radii(self) -> dict[str, float | None]:
-        """Each marker's radius as first fitted, px (None where never found)."""
+        """Each marker's learned radius, px: the median over the first frames it was
+        found in (None where never found)."""
         return {st.spec.name: st.radius for st in self.markers}
 
     @property
