@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .centre import Centre
-from .markers import MarkerSpec
+from .markers import AREA_GATE, MarkerSpec
 
 #: A fit whose residual exceeds this many times the marker's usual residual is
 #: not a whole disc (partly covered, or something of its colour touching it).
@@ -62,10 +62,11 @@ class MarkerState:
     def area_gates(self) -> tuple[tuple[float, float], ...]:
         """The blob areas a whole-frame search takes for the marker, as multiples of
         :attr:`area`, each gate tried only when nothing passed the one before:
-        0.3–3, and while its size is being learned 0.1–10 after that (a 2.5 px speck
-        that is a 7 px disc later passes; a 0.5 px glint beside a 4.5 px ball does
-        not, and a hand 4× the ball's area loses to the ball far off)."""
-        return ((0.3, 3.0), (0.1, 10.0)) if self.learning else ((0.3, 3.0),)
+        :data:`.markers.AREA_GATE` (0.3–3), and while its size is being learned
+        0.1–10 after that (a 2.5 px speck that is a 7 px disc later passes; a 0.5 px
+        glint beside a 4.5 px ball does not, and a hand 4× the ball's area loses to
+        the ball far off)."""
+        return (AREA_GATE, (0.1, 10.0)) if self.learning else (AREA_GATE,)
 
     def whole(self, centre: Centre) -> bool:
         """Does the fit look like the whole marker: its usual visible area and residual?

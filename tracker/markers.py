@@ -230,9 +230,13 @@ def _core(blob: Blob, labels: NDArray, dist: NDArray, k: int, box: NDArray,
                 float(np.pi / 4), 1.0)
 
 
+#: The blob areas taken for a marker of known size, as multiples of its area.
+AREA_GATE = (0.3, 3.0)
+
+
 def choose_blob(blobs: list[Blob], expected_area: float | None = None,
                 near: tuple[float, float] | None = None,
-                sizes: tuple[float, float] = (0.3, 3.0)) -> tuple[Blob | None, str]:
+                sizes: tuple[float, float] = AREA_GATE) -> tuple[Blob | None, str]:
     """Pick the marker among candidate blobs; returns ``(blob, status)``.
 
     Blobs must be disc-like and, once the marker's size is known, within
@@ -286,7 +290,7 @@ def balanced_hsv(rgb: NDArray[np.uint8], gains: NDArray[np.float32] | None) -> N
 
 def acquire(hsv: NDArray[np.uint8], spec: MarkerSpec, expected_area: float | None = None,
             near: tuple[float, float] | None = None,
-            gates: tuple[tuple[float, float], ...] = ((0.3, 3.0),)
+            gates: tuple[tuple[float, float], ...] = (AREA_GATE,)
             ) -> tuple[Blob | None, str, list[Blob]]:
     """Full-frame search for ``spec``'s marker, over a ladder of saturation floors.
 

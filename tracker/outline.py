@@ -215,24 +215,6 @@ def fit_circle(points: NDArray, iterations: int = 20
 
 
 @njit(cache=True, nogil=True)
-def _solve3(A: NDArray, b: NDArray) -> NDArray:
-    """A⁻¹b for a 3×3 A by Cramer's rule; NaN where A is singular."""
-    det = (A[0, 0] * (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])
-           - A[0, 1] * (A[1, 0] * A[2, 2] - A[1, 2] * A[2, 0])
-           + A[0, 2] * (A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]))
-    out = np.full(3, np.nan)
-    if det == 0.0 or not np.isfinite(det):
-        return out
-    for c in range(3):
-        M = A.copy()
-        M[:, c] = b
-        out[c] = (M[0, 0] * (M[1, 1] * M[2, 2] - M[1, 2] * M[2, 1])
-                  - M[0, 1] * (M[1, 0] * M[2, 2] - M[1, 2] * M[2, 0])
-                  + M[0, 2] * (M[1, 0] * M[2, 1] - M[1, 1] * M[2, 0])) / det
-    return out
-
-
-@njit(cache=True, nogil=True)
 def _reweighted_circle(x: NDArray, y: NDArray, p0: NDArray, iterations: int
                        ) -> tuple[NDArray, NDArray]:
     """The Gauss–Newton / Tukey-biweight iterations of :func:`fit_circle` from
@@ -259,7 +241,10 @@ def _reweighted_circle(x: NDArray, y: NDArray, p0: NDArray, iterations: int
                 g[a] -= J[i, a] * wts[i] * res[i]
                 for b in range(3):
                     A[a, b] += J[i, a] * wts[i] * J[i, b]
-        step = _solve3(A, g)
+        try:
+            step = np.linalg.solve(A, g)
+        except Exception:  # a singular system: numba catches no narrower class
+            break
         if not np.all(np.isfinite(step)):
             break
         p += step

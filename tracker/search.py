@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .marker_state import MarkerState
-from .markers import Blob, acquire, balanced_hsv, find_blobs, white_balance_gains
+from .markers import AREA_GATE, Blob, acquire, balanced_hsv, find_blobs, white_balance_gains
 from .video import Frame
 
 #: A marker that is not where it was looked for is sought in the whole frame only
@@ -91,7 +91,8 @@ def other_blobs(frame: Frame, state: MarkerState, hsv_cache: dict,
     reach = (20.0 * (state.radius or tried.radius) + 3.0 * state.speed_px() if wide
              else np.sqrt(2.0) * window(state))
     good = [b for b in find_blobs(full_hsv(frame, hsv_cache), state.spec) if b.disc_like()
-            and (not state.area or 0.3 * state.area <= b.area <= 3.0 * state.area)
+            and (not state.area
+                 or AREA_GATE[0] * state.area <= b.area <= AREA_GATE[1] * state.area)
             and np.hypot(b.x - tried.x, b.y - tried.y) > 1.0
             and np.hypot(b.x - pred[0], b.y - pred[1]) <= reach]
     good.sort(key=lambda b: (b.x - pred[0]) ** 2 + (b.y - pred[1]) ** 2)
