@@ -260,8 +260,10 @@ def _open_world_cases() -> dict:
         "eccentric spool": ([{"eccentricity": v, "spool_radius_mm": 1.0}
                              for v in (0.05, 0.1, 0.2)], "drive_ripple_mm",
                             lambda e: e["eccentricity"] * e["spool_radius_mm"]),
-        "dead band (outside)": ([{"dead_band_deg": v} for v in (0.5, 1.0, 2.0)],
-                                "unexplained", None),
+        "dead band": ([{"dead_band_deg": v} for v in (0.5, 1.0, 2.0)], "play_deg",
+                      lambda e: e["dead_band_deg"]),
+        "servo stall (outside)": ([{"stall_at_s": 0.9, "stall_s": v} for v in (0.05, 0.1, 0.2)],
+                                  "unexplained", None),
         "Coulomb friction (outside)": ([{"ring_hz": 3.0, "coulomb_rad_s2": v}
                                         for v in (0.5, 1.0, 2.0)], "unexplained", None),
     }

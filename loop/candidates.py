@@ -115,6 +115,18 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
               "ripple not at the turn rate); mark the spool's rim and count turns to check "
               "that ripple_turn_mm is one turn's wire (2π × the spool radius)",
               scan=("ripple_turn_mm", 2.0, 50.0)),
+    Candidate("play_deg", "physical", (Parameter("play_deg", "deg", 0.0, 30.0),),
+              ((0.3,), (1.5,)), 0.0, (0.0, 20.0),
+              "play (a dead band) between the wire and the crank: the crank stays at rest "
+              "until the wire has turned the play, then trails the play-free linkage by the "
+              "whole play and rocks through that much less",
+              needs_known=("start_s", "stroke_mm"),
+              separated_by="hold the wire and rock the crank by hand: play is the angle it "
+              "moves freely; or pre-tension the wire before the start, which takes up slack "
+              "and leaves play",
+              also_looks_like="slack in the wire (slack_mm): slack is wire lost at the "
+              "start, play an angle lost at the crank; they part only as the wire's lever "
+              "arm changes over the stroke"),
     Candidate("clock_scale", "recording", (Parameter("clock_scale", "1", 0.2, 5.0),),
               ((1.02,), (0.98,)), 1.0, (0.2, 5.0),
               "every rate is off by one factor: the container's frame rate is not the "

@@ -11,6 +11,9 @@ it takes:
   scored by what it adds to the lag below and put first when that is a fifth
   of the residual or more;
 - **lag**: the residual as ``−τ·ω`` (a delay or lead of τ);
+- **lag from a moment on**: ``−τ·ω`` only after some time mid-run, the best such
+  time scanned over the moving frames (the drive paused, slipped or skipped there),
+  kept when it takes a tenth of the residual more than a lag over the whole run;
 - **offset after the start**: a step where the model starts to move (lost
   motion: play, a dead band, friction that must be overcome);
 - **step at reversals**: a jump with the sign of ω (dry friction, play);
@@ -55,6 +58,27 @@ def _strongest_frequency(t: NDArray, r: NDArray, moving: NDArray) -> float | Non
     return float(freqs[int(np.argmax(power))])
 
 
+#: What a lag that starts mid-run must take of the residual beyond a whole-run lag.
+LATE_LAG_GAIN = 0.1
+
+
+def _lag_from(t: NDArray, r: NDArray, omega: NDArray, moving: NDArray) -> dict | None:
+    """The lag ``−τ·ω`` switched on at the moving frame that explains most of ``r``,
+    leaving out the first and last three moving frames (there it is a whole-run lag or
+    nothing); None with fewer than ten moving frames."""
+    frames = np.flatnonzero(moving)
+    if frames.size < 10:
+        return None
+    best = None
+    for k in frames[3:-3]:
+        after = (np.arange(r.size) >= k).astype(float)
+        share, coef = _share(r, [omega * after])
+        if best is None or share > best["share"]:
+            best = {"kind": "lag from a moment on", "share": share, "lag_s": float(-coef[0]),
+                    "from_s": float(t[k])}
+    return best
+
+
 def signature(t_s: NDArray, residual_deg: NDArray, model_deg: NDArray,
               context: dict[str, NDArray] | None = None) -> dict:
     """The leftover's signature: every shape tried, best first, and one sentence.
@@ -89,6 +113,9 @@ def signature(t_s: NDArray, residual_deg: NDArray, model_deg: NDArray,
     if moving.any():
         share, coef = _share(r, [omega])
         shapes.append({"kind": "lag", "share": share, "lag_s": float(-coef[0])})
+        late = _lag_from(t, r, omega, moving)
+        if late is not None and late["share"] >= share + LATE_LAG_GAIN:
+            shapes.append(late)
         first = int(np.argmax(moving))
         after_start = (np.arange(r.size) >= first).astype(float)
         share, coef = _share(r, [after_start])
@@ -129,6 +156,11 @@ def _sentence(s: dict) -> str:
         way = "behind" if s["lag_s"] > 0 else "ahead of"
         return (f"the crank runs {abs(s['lag_s']) * 1e3:.3g} ms {way} the model ({pct}): a "
                 "lag such as a slow heat or a compliant link, or a clock offset")
+    if s["kind"] == "lag from a moment on":
+        way = "behind" if s["lag_s"] > 0 else "ahead of"
+        return (f"the crank follows the model until {s['from_s']:.3g} s, then runs "
+                f"{abs(s['lag_s']) * 1e3:.3g} ms {way} it ({pct}): the drive paused, "
+                "slipped or skipped there")
     if s["kind"] == "offset after the start":
         return (f"the crank stays {abs(s['offset_deg']):.3g}° off the model from the moment "
                 f"the drive starts ({pct}): lost motion such as play, a dead band or friction "

@@ -57,6 +57,12 @@ def spool_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[n
                          ripple_mm=v.get("drive_ripple_mm", 0.0),
                          ripple_turn_mm=v.get("ripple_turn_mm", 10.0),
                          ripple_phase_deg=v.get("ripple_phase_deg", 0.0))[0]
+    play = v.get("play_deg", 0.0)
+    if play:
+        # The spring holds the crank on its rest side of the play until the wire has
+        # turned the whole play; from then on the crank trails by all of it.
+        rest = float(spool_drive(v).bed.theta(v["L3_0_mm"]))
+        theta = np.minimum(theta + np.radians(play), rest)
     if not np.all(np.isfinite(theta)):
         raise CranktrackError("the linkage does not close for these values")
     return theta

@@ -72,6 +72,8 @@ RIG_CHECKS = {
     "spool_growth_per_s": "wind the wire in a single layer or on a larger spool",
     "return_spring_hz": "the crank rings on the wire and spring: damp it or lighten it",
     "wire_stretch_mm": "use a stiffer wire or a weaker return spring",
+    "play_deg": "tighten the joint between the wire and the crank (a loose pin or loop "
+                "at B)",
     "lens_edge_pct": "calibrate the camera (`cranktrack calibrate camera`, then `calibrate "
                      "plane`)",
     "tilt_vertical_deg": "square the camera to the rig's plane, or calibrate the plane",

@@ -66,7 +66,12 @@ EFFECTS: dict[str, EffectInfo] = {
     "dead_band_deg": EffectInfo(
         "physical", "deg",
         "play between the wire and the crank: the wire closes this angle before the crank "
-        "moves, and the crank then stays that far behind (not in the fitter's library)"),
+        "moves, and the crank then stays that far behind (the fitter's play_deg)"),
+    "servo_stall_s": EffectInfo(
+        "physical", "s",
+        "the servo stops for this long halfway through its stroke, then winds the rest: "
+        "the crank follows the model until then and trails it afterwards (not in the "
+        "fitter's library)"),
     "dropped_frames": EffectInfo(
         "recording", "fraction",
         "this fraction of frames is missing: gaps in the timestamps, never interpolated"),
@@ -127,7 +132,7 @@ def check_effects(out: dict[str, float]) -> dict[str, float]:
     if not 0 <= out.get("spool_eccentricity", 0) < 1:
         raise CranktrackError("spool_eccentricity is a fraction of the radius, from 0 to below 1")
     for name in ("readout_s", "pivot_amp_mm", "pivot_hz", "exposure_s", "drive_delay_s",
-                 "dead_band_deg", "coulomb_rad_s2"):
+                 "dead_band_deg", "coulomb_rad_s2", "servo_stall_s"):
         if name in out and out[name] < 0:
             raise CranktrackError(f"{name} cannot be negative")
     return out
@@ -165,6 +170,9 @@ class EffectedSpool:
         if "spool_growth_per_s" in e:  # a thicker wire layers faster: diameter = g·r/turns
             values["wire_diameter_mm"] = (e["spool_growth_per_s"] * bed.spool_radius_mm
                                           / bed.turn_hz)
+        if "servo_stall_s" in e:  # halfway through the stroke as the servo runs it
+            values.update(stall_s=e["servo_stall_s"],
+                          stall_at_s=d.start_s + 0.5 * d.stroke_mm / d.speed_mm_s)
         if values.get("coulomb_rad_s2", 0) > 0 and "ring_hz" not in values:
             raise CranktrackError("coulomb_rad_s2 on the spool needs return_spring_hz: dry "
                                   "friction acts through the crank's inertia")

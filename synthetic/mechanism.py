@@ -13,8 +13,10 @@ Where the physics admits two forms, both are here: slack as lost stroke
 (``dead_band_deg``) and as a Coulomb torque in the equation of motion
 (``coulomb_rad_s2``, with ``ring_hz`` giving the crank its inertia). An eccentric
 spool (``eccentricity``) is the fitter's ``drive_ripple_mm``, written here as the
-spool's geometry; a dead band (``dead_band_deg``) is not in the fitter's library:
-it must come out as "unexplained", never under another effect's name.
+spool's geometry; a dead band (``dead_band_deg``) is the fitter's ``play_deg``. A
+servo that stalls mid-stroke (``stall_at_s``, ``stall_s``) and dry friction are not
+in the fitter's library: they must come out as "unexplained", never under another
+effect's name.
 
 Lengths in mm, angles in rad, times in s (the video's clock, unless said).
 """
@@ -79,7 +81,9 @@ class SpoolBed:
     - ``coulomb_rad_s2``: dry friction at the pivot, as an angular deceleration
       (needs ``ring_hz``: friction acts through the equation of motion);
     - ``dead_band_deg``: play between the wire and the crank; the spring holds the
-      crank on one side, so the wire takes the whole band up before the crank moves.
+      crank on one side, so the wire takes the whole band up before the crank moves;
+    - ``stall_at_s``, ``stall_s``: the servo stalls at that drive time for that long
+      and then goes on (a hiccup of its control loop), still winding the whole stroke.
     """
 
     L1_mm: float = 160.8
@@ -98,6 +102,8 @@ class SpoolBed:
     ring_zeta: float = 0.1
     coulomb_rad_s2: float = 0.0
     dead_band_deg: float = 0.0
+    stall_at_s: float = 0.0
+    stall_s: float = 0.0
 
     @property
     def servo_rad_s(self) -> float:
@@ -124,6 +130,8 @@ class SpoolBed:
     def wound_mm(self, t_s: ArrayLike) -> NDArray[np.float64]:
         """Wire wound onto the spool (mm) at drive time ``t_s`` (s)."""
         t = np.asarray(t_s, float)
+        # The servo's own running time: a stall takes its length out of it.
+        t = t - np.clip(t - self.stall_at_s, 0.0, self.stall_s)
         phi = np.maximum(t - self.start_s, 0.0) * self.servo_rad_s
         return self._wound_at_angle(np.minimum(phi, self._stop_angle))
 

@@ -37,6 +37,19 @@ def test_slack_delays_the_start_and_shrinks_the_rocking_angle():
     assert rocking == pytest.approx(expected, abs=1e-6)
 
 
+def test_a_servo_stall_holds_the_crank_halfway_then_finishes_the_stroke_that_much_later():
+    base = SpoolScenario().motion(T)
+    m = EffectedSpool(SpoolScenario(), {"servo_stall_s": 0.2}).motion(T)
+    mid = 0.5 + 0.5 * 15.0 / 14.0  # halfway through the 15 mm stroke at 14 mm/s
+    held = (T > mid + 0.002) & (T < mid + 0.198)
+    assert np.ptp(m.theta[held]) < 1e-12
+    assert m.theta[held][0] == pytest.approx(float(np.interp(mid, T, base.theta)), abs=1e-6)
+    late = (T > mid + 0.25) & (T < 1.5)  # after the stall: the plain stroke 0.2 s later
+    np.testing.assert_allclose(m.theta[late], np.interp(T[late] - 0.2, T, base.theta),
+                               atol=1e-5)
+    assert m.theta[-1] == pytest.approx(base.theta[-1], abs=1e-9)  # the whole stroke
+
+
 def test_spool_growth_ends_the_stroke_sooner_with_a_faster_crank():
     g = 0.3
     base = SpoolScenario().motion(T)

@@ -40,6 +40,7 @@ def test_the_linkage_by_circle_crossings_is_the_law_of_cosines():
                                       .growth_per_s}),
     (SpoolBed(stretch_mm=0.5), {"wire_stretch_mm": 0.5}),
     (SpoolBed(ring_hz=3.0, ring_zeta=0.1), {"return_spring_hz": 3.0}),
+    (SpoolBed(dead_band_deg=1.5), {"play_deg": 1.5}),
 ])
 def test_the_mechanism_and_the_fitters_model_agree_where_the_physics_is_the_same(
         bed, model_values):
@@ -59,6 +60,9 @@ def test_the_mechanism_and_the_fitters_model_agree_where_the_physics_is_the_same
     (SpoolBed(stretch_mm=0.5), "wire_stretch_mm", "wire_stretch_mm", 0.5),
     (SpoolBed(ring_hz=3.0), "return_spring_hz", "return_spring_hz", 3.0),
     (SpoolBed(ring_hz=8.0, ring_zeta=0.05), "return_spring_hz", "return_spring_hz", 8.0),
+    (SpoolBed(dead_band_deg=0.5), "play_deg", "play_deg", 0.5),  # play, not slack
+    (SpoolBed(dead_band_deg=2.0), "play_deg", "play_deg", 2.0),
+    (SpoolBed(slack_mm=0.3), "slack_mm", "slack_mm", 0.3),  # slack, not play
 ])
 def test_an_effect_in_the_library_is_named_alone_and_measured(bed, named, parameter, truth):
     report = loop(bed, correlation=0.5)
@@ -83,14 +87,26 @@ def test_an_off_centre_spool_is_named_a_drive_ripple_of_its_offset_and_turn(radi
 
 
 @pytest.mark.parametrize("bed", [
-    SpoolBed(dead_band_deg=1.5),
+    SpoolBed(stall_at_s=0.9, stall_s=0.1),
     SpoolBed(ring_hz=3.0, coulomb_rad_s2=2.0),
-], ids=["dead-band", "coulomb"])
+], ids=["servo-stall", "coulomb"])
 def test_an_effect_outside_the_library_is_unexplained_never_misnamed(bed):
     report = loop(bed)
     assert report["effects"] == []
     assert report["unexplained"].startswith("the residual stays structured")
     assert report["rmse_after_deg"] > 1.5 * SIGMA  # nothing soaked it up quietly
+
+
+@pytest.mark.parametrize("stall_s", [0.05, 0.1])
+def test_a_servo_that_stalls_mid_stroke_is_described_as_a_lag_from_then_on(stall_s):
+    # The servo stops at 0.9 s for stall_s, then winds the rest of the stroke: the crank
+    # keeps to the model until then and trails it by about stall_s afterwards.
+    report = loop(SpoolBed(stall_at_s=0.9, stall_s=stall_s), correlation=0.5)
+    top = report["leftover"]["shapes"][0]
+    assert top["kind"] == "lag from a moment on"
+    assert 0.9 <= top["from_s"] <= 0.9 + stall_s + 2 / 30.0
+    assert top["lag_s"] == pytest.approx(stall_s, rel=0.15)
+    assert report["leftover"]["sentence"].startswith("the crank follows the model until")
 
 
 @pytest.mark.parametrize("seed", range(6))
