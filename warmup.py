@@ -28,6 +28,7 @@ def compile_kernels() -> list[str]:
     from .models.dynamics import CrankDynamics, free_response
     from .models.heat import CurrentSteps
     from .models.sma_bed import SMABed, simulate_bed
+    from .models.spool import crank_friction
     from .synthetic.scenarios import SpoolScenario
     from .synthetic.scene import RenderSettings, render_scene
     from .tracker.outline import fit_circle, rim_points
@@ -52,6 +53,8 @@ def compile_kernels() -> list[str]:
     t = np.linspace(0.0, 1.0, 11)
     free_response(CrankDynamics(coulomb=0.1), t, 0.3)
     done.append("free response")
+    crank_friction(np.linspace(0.0, -0.1, 50), 2e-3, 3.0, 0.1, 0.5)
+    done.append("spool crank with dry friction")
     simulate_bed(SMABed(), CurrentSteps((0.1, 0.5), (1.3, 0.0)), t)
     done.append("SMA bed")
     bed, wire = SMABed(), SMABed().thermal

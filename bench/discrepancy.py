@@ -264,8 +264,8 @@ def _open_world_cases() -> dict:
                       lambda e: e["dead_band_deg"]),
         "servo stall (outside)": ([{"stall_at_s": 0.9, "stall_s": v} for v in (0.05, 0.1, 0.2)],
                                   "unexplained", None),
-        "Coulomb friction (outside)": ([{"ring_hz": 3.0, "coulomb_rad_s2": v}
-                                        for v in (0.5, 1.0, 2.0)], "unexplained", None),
+        "Coulomb friction": ([{"ring_hz": 3.0, "coulomb_rad_s2": v} for v in (0.5, 1.0, 2.0)],
+                             "coulomb_rad_s2", lambda e: e["coulomb_rad_s2"]),
     }
 
 

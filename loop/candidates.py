@@ -127,6 +127,21 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
               also_looks_like="slack in the wire (slack_mm): slack is wire lost at the "
               "start, play an angle lost at the crank; they part only as the wire's lever "
               "arm changes over the stroke"),
+    Candidate("coulomb_rad_s2", "physical",
+              (Parameter("coulomb_rad_s2", "rad/s²", 0.0, 1e3),
+               Parameter("return_spring_hz", "Hz", 0.05, 1e3),
+               Parameter("return_spring_zeta", "1", 0.001, 0.99)),
+              ((0.5, 3.0, 0.1), (2.0, 3.0, 0.1), (0.5, 8.0, 0.1), (2.0, 1.0, 0.1)), 0.0,
+              (0.0, 1e3),
+              "dry friction at the pivot, acting through the crank's inertia: the crank "
+              "breaks away late, stops short of the wire's angle, and its ring at the stop "
+              "dies in a few swings, each smaller by the same angle, and freezes off "
+              "balance",
+              also_looks_like="a crank with inertia and more viscous damping "
+              "(return_spring_hz with a larger zeta); dry friction stops the ring dead "
+              "after a few swings, viscous damping never quite does: film the stop at a "
+              "higher frame rate, or run the drive at two speeds",
+              scan=("coulomb_rad_s2", 0.01, 30.0)),
     Candidate("clock_scale", "recording", (Parameter("clock_scale", "1", 0.2, 5.0),),
               ((1.02,), (0.98,)), 1.0, (0.2, 5.0),
               "every rate is off by one factor: the container's frame rate is not the "

@@ -303,15 +303,20 @@ class _Fitter:
         free = list(self.base_free)
         lists = []
         for name in effects:
+            c = self.candidates[name]
+            # A parameter two effects share (the crank's ring, which dry friction acts
+            # through) is fitted once, where it first comes.
+            mine = [i for i, p in enumerate(c.parameters) if p.name not in
+                    {q.name for q in free}]
             ps = [replace(p, upper=min(p.upper, 0.9 * self.nyquist)) if p.unit == "Hz" else p
-                  for p in self.candidates[name].parameters]
+                  for p in (c.parameters[i] for i in mine)]
             free += ps
             have = [start_from.get(p.name) for p in ps]
             # The library's starts, and any the data's guesses give for this effect.
             own = [tuple(g[p.name] for p in ps) for g in self.guesses[:1]
                    if all(p.name in g for p in ps)]
             lists.append([tuple(have)] if all(h is not None for h in have)
-                         else [*self.candidates[name].starts, *own])
+                         else [*(tuple(st[i] for i in mine) for st in c.starts), *own])
         # Each effect's starting values in turn (the longest list sets how many).
         width = max((len(x) for x in lists), default=1)
         effect_starts = [sum((x[i % len(x)] for x in lists), ()) for i in range(width)]

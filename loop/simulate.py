@@ -56,7 +56,8 @@ def spool_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[n
                          stretch_mm=v.get("wire_stretch_mm", 0.0),
                          ripple_mm=v.get("drive_ripple_mm", 0.0),
                          ripple_turn_mm=v.get("ripple_turn_mm", 10.0),
-                         ripple_phase_deg=v.get("ripple_phase_deg", 0.0))[0]
+                         ripple_phase_deg=v.get("ripple_phase_deg", 0.0),
+                         coulomb_rad_s2=v.get("coulomb_rad_s2", 0.0))[0]
     play = v.get("play_deg", 0.0)
     if play:
         # The spring holds the crank on its rest side of the play until the wire has

@@ -13,6 +13,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import brentq
 from scipy.signal import lfilter
@@ -134,6 +135,85 @@ def crank_inertia(theta: NDArray[np.float64], dt_s: float, hz: float, zeta: floa
     return theta[0] + lfilter(wn**2 * np.array([1.0, 2.0, 1.0]), den, u)
 
 
+@njit(cache=True, nogil=True)
+def _driven_step(th: float, om: float, h: float, u0: float, u1: float, wn: float,
+                 zeta: float, drag: float) -> tuple[float, float]:
+    """One RK4 step of θ'' = ωn²(u − θ) − 2ζωn·θ' − drag, u going linearly u0 → u1."""
+    um = 0.5 * (u0 + u1)
+    a1 = wn * wn * (u0 - th) - 2.0 * zeta * wn * om - drag
+    t2, w2 = th + 0.5 * h * om, om + 0.5 * h * a1
+    a2 = wn * wn * (um - t2) - 2.0 * zeta * wn * w2 - drag
+    t3, w3 = th + 0.5 * h * w2, om + 0.5 * h * a2
+    a3 = wn * wn * (um - t3) - 2.0 * zeta * wn * w3 - drag
+    t4, w4 = th + h * w3, om + h * a3
+    a4 = wn * wn * (u1 - t4) - 2.0 * zeta * wn * w4 - drag
+    return (th + h / 6.0 * (om + 2.0 * w2 + 2.0 * w3 + w4),
+            om + h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4))
+
+
+@njit(cache=True, nogil=True)
+def _crank_friction(target: np.ndarray, h: float, wn: float, zeta: float,
+                    mu: float) -> np.ndarray:
+    out = np.empty(target.size)
+    th, om = target[0], 0.0
+    out[0] = th
+    for k in range(target.size - 1):
+        u0, u1 = target[k], target[k + 1]
+        s = 0.0  # time into this step: a step may hold a stop and a break-away
+        for _ in range(8):
+            ua = u0 + (u1 - u0) * s / h
+            if om == 0.0:
+                pull = wn * wn * (u1 - th)  # the wire's and spring's pull by the step's end
+                if abs(pull) <= mu:
+                    break  # stuck to the step's end: friction holds whatever they do
+                sense = 1.0 if pull > 0.0 else -1.0
+                # It breaks away where the pull, linear over the step, reaches μ.
+                before = wn * wn * (ua - th) * sense
+                if before < mu:
+                    s += (h - s) * (mu - before) / (pull * sense - before)
+                    ua = u0 + (u1 - u0) * s / h
+            else:
+                sense = 1.0 if om > 0.0 else -1.0
+            rest = h - s
+            new_th, new_om = _driven_step(th, om, rest, ua, u1, wn, zeta, mu * sense)
+            if new_om * sense >= 0.0:
+                th, om = new_th, new_om
+                break
+            # Friction cannot push: the crank stops within the step. Where, by bisection
+            # on the time (the friction's sign is fixed until then); then it sticks or
+            # turns back for the rest of the step.
+            lo, hi = 0.0, rest
+            for _ in range(40):
+                mid = 0.5 * (lo + hi)
+                w = _driven_step(th, om, mid, ua, ua + (u1 - ua) * mid / rest, wn, zeta,
+                                 mu * sense)[1]
+                if w * sense > 0.0:
+                    lo = mid
+                else:
+                    hi = mid
+            th = _driven_step(th, om, lo, ua, ua + (u1 - ua) * lo / rest, wn, zeta,
+                              mu * sense)[0]
+            om = 0.0
+            s += lo
+        out[k + 1] = th
+    return out
+
+
+def crank_friction(theta: NDArray[np.float64], dt_s: float, hz: float, zeta: float,
+                   coulomb_rad_s2: float) -> NDArray[np.float64]:
+    """θ (rad) of a crank with inertia and dry friction at its pivot, pulled towards
+    ``theta`` as in :func:`crank_inertia`.
+
+    θ'' = ωn²(θ_massless − θ) − 2ζωn·θ' − μ·sign(θ'), with μ = ``coulomb_rad_s2``
+    (the friction torque per unit inertia): while the crank stands, it stays put as
+    long as the wire's and the spring's pull is within μ. Fourth-order Runge–Kutta on
+    the massless angle's grid (step ``dt_s``, the target linear within a step), each
+    stop found by bisection within its step; compiled, as a fit runs it hundreds of times.
+    """
+    return _crank_friction(np.ascontiguousarray(theta, dtype=np.float64), float(dt_s),
+                           2.0 * np.pi * hz, float(zeta), float(coulomb_rad_s2))
+
+
 def _first_reach(wound: Callable[[NDArray], NDArray], stroke_mm: float, near_s: float,
                  period_s: float) -> float:
     """The first drive time (s) at which ``wound`` reaches ``stroke_mm``: a rippled
@@ -150,7 +230,8 @@ def _first_reach(wound: Callable[[NDArray], NDArray], stroke_mm: float, near_s: 
 def spool_motion(drive: SpoolDrive, t_s: ArrayLike, slack_mm: float = 0.0,
                  growth_per_s: float = 0.0, ring_hz: float = 0.0, ring_zeta: float = 0.1,
                  rates: bool = True, stretch_mm: float = 0.0, ripple_mm: float = 0.0,
-                 ripple_turn_mm: float = 10.0, ripple_phase_deg: float = 0.0
+                 ripple_turn_mm: float = 10.0, ripple_phase_deg: float = 0.0,
+                 coulomb_rad_s2: float = 0.0
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """θ, ω, α (rad, rad/s, rad/s²) of the spool bed with effects the plain model lacks.
 
@@ -168,10 +249,15 @@ def spool_motion(drive: SpoolDrive, t_s: ArrayLike, slack_mm: float = 0.0,
     ``ripple·(cos φ0 − cos(φ0 + 2π·wound/ripple_turn_mm))`` (φ0 =
     ``ripple_phase_deg``, the spool's angle at the start; ``ripple_turn_mm`` the
     wire one turn winds): the wire's speed ripples once per spool turn; the drive
-    still stops when ``stroke_mm`` is wound.
+    still stops when ``stroke_mm`` is wound. ``coulomb_rad_s2``: dry friction at the
+    pivot (:func:`crank_friction`), which acts through the crank's inertia and so needs
+    ``ring_hz``.
     """
     t = np.asarray(t_s, dtype=float)
     d, g = drive, growth_per_s
+    if coulomb_rad_s2 > 0 and not ring_hz > 0:
+        raise CranktrackError("dry friction at the pivot needs the crank's inertia "
+                              "(ring_hz): without it nothing resists the wire but the spring")
     if not 0 <= slack_mm < d.stroke_mm:
         raise CranktrackError(f"slack_mm must be at least 0 and below the stroke "
                               f"({d.stroke_mm} mm)")
@@ -215,7 +301,9 @@ def spool_motion(drive: SpoolDrive, t_s: ArrayLike, slack_mm: float = 0.0,
         grid = np.arange(min(float(t.min()), d.start_s) - step, float(t.max()) + 2 * step, step)
         g_tau = np.clip(grid - d.start_s, 0.0, tau_stop)
         massless = d.bed.theta(length(g_tau))
-        theta = np.interp(t, grid, crank_inertia(massless, step, ring_hz, ring_zeta))
+        crank = (crank_friction(massless, step, ring_hz, ring_zeta, coulomb_rad_s2)
+                 if coulomb_rad_s2 > 0 else crank_inertia(massless, step, ring_hz, ring_zeta))
+        theta = np.interp(t, grid, crank)
         omega = alpha = np.full_like(theta, np.nan)
     if stretch_mm > 0:
         theta = stretched_theta(d, theta, stretch_mm)

@@ -72,6 +72,8 @@ RIG_CHECKS = {
     "spool_growth_per_s": "wind the wire in a single layer or on a larger spool",
     "return_spring_hz": "the crank rings on the wire and spring: damp it or lighten it",
     "wire_stretch_mm": "use a stiffer wire or a weaker return spring",
+    "coulomb_rad_s2": "free the pivot: clean or replace its bearing, or ease what presses "
+                      "on it",
     "play_deg": "tighten the joint between the wire and the crank (a loose pin or loop "
                 "at B)",
     "lens_edge_pct": "calibrate the camera (`cranktrack calibrate camera`, then `calibrate "

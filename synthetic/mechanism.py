@@ -14,9 +14,8 @@ Where the physics admits two forms, both are here: slack as lost stroke
 (``coulomb_rad_s2``, with ``ring_hz`` giving the crank its inertia). An eccentric
 spool (``eccentricity``) is the fitter's ``drive_ripple_mm``, written here as the
 spool's geometry; a dead band (``dead_band_deg``) is the fitter's ``play_deg``. A
-servo that stalls mid-stroke (``stall_at_s``, ``stall_s``) and dry friction are not
-in the fitter's library: they must come out as "unexplained", never under another
-effect's name.
+servo that stalls mid-stroke (``stall_at_s``, ``stall_s``) is not in the fitter's
+library: it must come out as "unexplained", never under another effect's name.
 
 Lengths in mm, angles in rad, times in s (the video's clock, unless said).
 """

@@ -13,6 +13,7 @@ from cranktrack.cli import main
 from cranktrack.models.dynamics import CrankDynamics, free_response
 from cranktrack.models.heat import CurrentSteps
 from cranktrack.models.sma_bed import SMABed, simulate_bed
+from cranktrack.models.spool import crank_friction
 import numpy as np
 
 for video, out in zip(sys.argv[1::2], sys.argv[2::2]):
@@ -20,6 +21,7 @@ for video, out in zip(sys.argv[1::2], sys.argv[2::2]):
 t = np.linspace(0.0, 2.0, 41)
 free_response(CrankDynamics(coulomb=0.3, k_d=0.1), t, 0.5)
 simulate_bed(SMABed(), CurrentSteps((0.2, 1.0), (1.2, 0.0)), t)
+crank_friction(np.linspace(0.0, -0.3, 200), 1e-3, 4.0, 0.2, 1.0)
 missed, loaded = [], 0
 for info in pkgutil.walk_packages(cranktrack.__path__, "cranktrack."):
     if ".tests" in info.name or ".bench" in info.name:
