@@ -85,6 +85,23 @@ RIG_CHECKS = {
 }
 
 
+def _camera_caveat(report: dict) -> str:
+    """A sentence when the rigid crank says the camera bends the angles and no camera
+    effect was named: the base model's free values may have taken that bias in."""
+    links = report.get("links") or {}
+    crank = links.get("L2_mm") or {}
+    if not report.get("camera_effect_suspected") or any(
+            n in CAMERA_CANDIDATES for n in report["effects"]):
+        return ""
+    return (f" But the rigid crank |AB| varies by {crank.get('std_mm', float('nan')):.3g} mm "
+            f"(the tracker allows {links.get('crank_std_expected_mm', float('nan')):.3g}) "
+            f"and follows θ (r = {crank.get('r_with_theta', float('nan')):.2f}): the camera is "
+            "probably tilted or its lens distorts. The model's own parameters can take such "
+            "a bias in without leaving a residual, so its fitted values carry it: calibrate "
+            "the camera (`cranktrack calibrate camera`, then `calibrate plane`) and track "
+            "again before trusting them.")
+
+
 def plain_summary(report: dict) -> str:
     """One paragraph for a lab user: what was found, how sure, what it changes in the
     numbers and what to check on the rig."""
@@ -109,7 +126,7 @@ def plain_summary(report: dict) -> str:
     if not report["effects"]:
         return (f"The {report['model']} model alone reproduces the measured angle to "
                 f"{before:.3g}° RMS, at the tracker's noise ({noise:.3g}°): nothing is "
-                "missing that this video can show.")
+                "missing that this video's angles can show." + _camera_caveat(report))
     found = []
     for name in report["effects"]:
         p = params.get(name, {})
@@ -123,7 +140,7 @@ def plain_summary(report: dict) -> str:
             f"{report['max_after_deg']:.3g}° instead of {report['max_before_deg']:.3g}°), "
             f"against the tracker's noise of {noise:.3g}°; each effect had to win by a wide "
             "margin and keep its value on its own to be named."
-            + (f" On the rig: {'; '.join(checks)}." if checks else ""))
+            + (f" On the rig: {'; '.join(checks)}." if checks else "") + _camera_caveat(report))
 
 
 def _links_section(report: dict) -> list[str]:
