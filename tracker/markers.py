@@ -11,6 +11,7 @@ larger than the marker, among pixels of little saturation.
 from __future__ import annotations
 
 import colorsys
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import cv2
@@ -61,6 +62,13 @@ class MarkerSpec:
     #: mall, no markers): with balls allowed, A, B and C were "found" on shaded
     #: clothes and signs in 97–99 % of frames, and the rim fits took 90 % of the time.
     flat: bool = False
+
+    def takes(self, blob: Blob) -> bool:
+        """Could ``blob`` be this marker by its shape? The crank-slider's printed discs
+        are disc-like; a marker the user names may be any compact blob
+        (:meth:`Blob.compact`): on Tracker's CupsClips the paper cups are square-cut
+        8×3 px strips, which the disc test (fill ≤ 0.95) turned away."""
+        return blob.disc_like() if self.flat else blob.compact()
 
     @classmethod
     def from_colour(cls, name: str, colour: str) -> MarkerSpec:
@@ -178,6 +186,11 @@ class Blob:
         """Roughly a disc (partly covered or blurred discs still pass)."""
         return 0.45 <= self.fill <= 0.95 and 0.4 <= self.aspect <= 2.5
 
+    def compact(self) -> bool:
+        """A compact blob of any shape people make markers in: a disc, a square (fill
+        up to 1), a strip of tape or a motion-blurred streak up to 3:1."""
+        return 0.45 <= self.fill and 1 / 3 <= self.aspect <= 3.0
+
 
 def find_blobs(hsv: NDArray[np.uint8], spec: MarkerSpec, x0: int = 0, y0: int = 0
                ) -> list[Blob]:
@@ -236,17 +249,19 @@ AREA_GATE = (0.3, 3.0)
 
 def choose_blob(blobs: list[Blob], expected_area: float | None = None,
                 near: tuple[float, float] | None = None,
-                sizes: tuple[float, float] = AREA_GATE) -> tuple[Blob | None, str]:
+                sizes: tuple[float, float] = AREA_GATE,
+                shape: Callable[[Blob], bool] = Blob.disc_like) -> tuple[Blob | None, str]:
     """Pick the marker among candidate blobs; returns ``(blob, status)``.
 
-    Blobs must be disc-like and, once the marker's size is known, within
-    0.3–3× its area. Among those, the nearest to ``near`` wins, else the
-    largest. ``status`` is ``"ok"``, ``"not_found"`` (no blob of the colour)
-    or ``"rejected"`` (blobs of the colour, none of a marker's size and shape).
+    Blobs must pass ``shape`` (disc-like by default; :meth:`MarkerSpec.takes` for
+    a marker's own) and, once the marker's size is known, within 0.3–3× its area.
+    Among those, the nearest to ``near`` wins, else the largest. ``status`` is
+    ``"ok"``, ``"not_found"`` (no blob of the colour) or ``"rejected"`` (blobs of
+    the colour, none of a marker's size and shape).
     """
     if not blobs:
         return None, "not_found"
-    good = [b for b in blobs if b.disc_like()]
+    good = [b for b in blobs if shape(b)]
     if expected_area:
         good = [b for b in good
                 if sizes[0] * expected_area <= b.area <= sizes[1] * expected_area]
@@ -306,14 +321,14 @@ def acquire(hsv: NDArray[np.uint8], spec: MarkerSpec, expected_area: float | Non
         floor = min(spec.min_saturation + extra, 0.9)
         blobs += find_blobs(hsv, replace(spec, min_saturation=floor))
     for sizes in gates:  # the next, wider gate only when nothing passed the one before
-        blob, status = choose_blob(blobs, expected_area, near, sizes)
+        blob, status = choose_blob(blobs, expected_area, near, sizes, spec.takes)
         if blob is not None:
             break
     rivals: list[Blob] = []
     if blob is not None:
         for b in blobs:
             far = np.hypot(b.x - blob.x, b.y - blob.y) > 3 * blob.radius
-            alike = b.disc_like() and 0.5 * blob.area <= b.area <= 2.0 * blob.area
+            alike = spec.takes(b) and 0.5 * blob.area <= b.area <= 2.0 * blob.area
             seen = any(np.hypot(b.x - r.x, b.y - r.y) < 2 * blob.radius for r in rivals)
             if far and alike and not seen:
                 rivals.append(b)

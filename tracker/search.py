@@ -36,10 +36,12 @@ def full_search_interval(missed: int) -> int:
 
 def window(state: MarkerState) -> float:
     """Half-width (px) of the window searched around the prediction: three radii and
-    twice the last step, doubled for each of the first two frames the marker has
-    been missed (wider than that costs as much as the whole-frame search)."""
+    twice how far the motion may take it from the prediction
+    (:meth:`.MarkerState.motion_px`), doubled for each of the first two frames the
+    marker has been missed (wider than that costs as much as the whole-frame
+    search)."""
     r = state.radius or 0.0
-    return (3.0 * r + 2.0 * state.speed_px() + 4.0) * 2.0 ** min(state.missed, 2)
+    return (3.0 * r + 2.0 * state.motion_px() + 4.0) * 2.0 ** min(state.missed, 2)
 
 
 def search_whole_frame(state: MarkerState, pred: tuple[float, float] | None) -> bool:
@@ -90,7 +92,8 @@ def other_blobs(frame: Frame, state: MarkerState, hsv_cache: dict,
     the marker."""
     reach = (20.0 * (state.radius or tried.radius) + 3.0 * state.speed_px() if wide
              else np.sqrt(2.0) * window(state))
-    good = [b for b in find_blobs(full_hsv(frame, hsv_cache), state.spec) if b.disc_like()
+    good = [b for b in find_blobs(full_hsv(frame, hsv_cache), state.spec)
+            if state.spec.takes(b)
             and (not state.area
                  or AREA_GATE[0] * state.area <= b.area <= AREA_GATE[1] * state.area)
             and np.hypot(b.x - tried.x, b.y - tried.y) > 1.0

@@ -55,8 +55,9 @@ STATUSES = {
 }
 
 #: Fitted coverage gain of a marker that is really there (≈ 1; an absent or
-#: hidden marker fits ≈ 0). Wide, because at a radius of a few pixels the gain
-#: trades off against the edge's blur.
+#: hidden marker fits ≈ 0), as multiples of the marker's usual gain
+#: (:attr:`.MarkerState.gain_range`). Wide, because at a radius of a few pixels
+#: the gain trades off against the edge's blur.
 GAIN_RANGE = (0.5, 1.7)
 
 
@@ -66,10 +67,11 @@ def _honest(c: Centre) -> bool:
     return bool(np.isfinite(c.sigma) and 0 < c.sigma < c.radius)
 
 
-def _plausible(c: Centre, guess: tuple[float, float], radius: float) -> bool:
+def _plausible(c: Centre, guess: tuple[float, float], state: MarkerState) -> bool:
     """A fit from a prediction that found the marker's colour, near the prediction."""
-    return c.ok and _honest(c) and GAIN_RANGE[0] < c.gain < GAIN_RANGE[1] and np.hypot(
-        c.x - guess[0], c.y - guess[1]) < radius
+    lo, hi = state.gain_range(GAIN_RANGE)
+    return c.ok and _honest(c) and lo < c.gain < hi and np.hypot(
+        c.x - guess[0], c.y - guess[1]) < state.radius
 
 
 def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict
@@ -88,7 +90,7 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict
                 luminance = bool(state.spec.tone)
                 centre, seen = refine(frame, pred, r, state.marker, init=state.shape,
                                       luminance=luminance, rim=state.rim)
-                if _plausible(centre, pred, r):
+                if _plausible(centre, pred, state):
                     if not state.whole(centre):
                         return None, "partly_covered"
                     state.remember(centre, seen)
@@ -96,7 +98,10 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict
             half = window(state)
             patch, x0, y0 = patch_around(frame, pred[0], pred[1], half)
             hsv = balanced_hsv(patch, hsv_cache.get("gains"))
-            blob, status = choose_blob(find_blobs(hsv, state.spec, x0, y0), state.area, pred)
+            # Within the window's circle: its square's corners reach 1.4× as far.
+            near = [b for b in find_blobs(hsv, state.spec, x0, y0)
+                    if np.hypot(b.x - pred[0], b.y - pred[1]) <= half]
+            blob, status = choose_blob(near, state.area, pred, shape=state.spec.takes)
     whole_frame = blob is None
     if whole_frame:
         if not search_whole_frame(state, pred):
@@ -166,8 +171,9 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
 def _whole_and_honest(state: MarkerState, centre: Centre, seen: NDArray | None
                       ) -> tuple[Centre | None, NDArray | None, str]:
     """The centre if its fit is sound and shows the whole marker, else why not."""
+    lo, hi = state.gain_range(GAIN_RANGE)
     if not centre.ok or not _honest(centre) or (
-            state.marker is not None and not GAIN_RANGE[0] < centre.gain < GAIN_RANGE[1]):
+            state.marker is not None and not lo < centre.gain < hi):
         return None, None, "refine_failed"
     lo, hi = state.area_gates[-1]
     if state.radius is not None and not lo <= (centre.radius / state.radius) ** 2 <= hi:
@@ -331,16 +337,14 @@ def _locate_markers(frame: Frame, state: TrackerState) -> list:
     hsv_cache: dict = state.balance.copy()
     found: list[tuple[MarkerState, Centre]] = []
     for st in state.markers:
+        predicted = st.predict(frame.t_s)
         centre, status = _locate(frame, st, frame.t_s, hsv_cache)
         state.balance["gains"] = hsv_cache.get("gains")
         if centre is None:
             values += [np.nan, np.nan, np.nan, False, status]
             st.missed += 1  # searched for around its last fix, in a widening window
         else:
-            # After a loss the last fix is too old to give a velocity.
-            st.history = [*(st.history[-1:] if st.missed == 0 else []),
-                          (frame.t_s, centre.x, centre.y)]
-            st.missed = 0
+            st.found_at(frame.t_s, centre.x, centre.y, predicted)
             values += [centre.x, centre.y, centre.sigma, True, status]
             found.append((st, centre))
     _one_blob_each(found, state.markers, values, frame.t_s)
@@ -365,7 +369,7 @@ def _one_blob_each(found: list[tuple[MarkerState, Centre]], markers: list[Marker
     for k, st in enumerate(markers):
         if id(st) in clash:
             values[5 * k:5 * k + 5] = [np.nan, np.nan, np.nan, False, "same_blob"]
-            st.history, st.missed = [], 1  # neither fix is trusted: sought afresh
+            st.forget_motion()  # neither fix is trusted: sought afresh
 
 
 def locate(frame: Frame | NDArray[np.uint8], markers: Sequence[MarkerSpec] = DEFAULT_MARKERS,
