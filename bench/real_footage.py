@@ -23,6 +23,7 @@ it says so and exits 0.
 
 from __future__ import annotations
 
+import itertools
 import subprocess
 import sys
 import time
@@ -57,6 +58,8 @@ class Clip:
     physics: str
     #: Which ``.trk`` of the project, when it holds several (part of its name).
     trk: str = ""
+    #: The falling mass in paper clips, for "drag" (terminal speed² ∝ mass).
+    mass_clips: float = float("nan")
 
 
 CLIPS = (
@@ -72,7 +75,19 @@ CLIPS = (
     # so there is no physics to check it against, only the peer.
     Clip("Diabolo.trz", "masa A", "diabolo=white@457,500", "",
          "CM trajectory 2"),
+    # Paper cupcake cups dropped side by side (Flashmedia 1997, 320×240 JPEG pictures
+    # 99 ms apart): small white strips on a dark board, each carrying a number of
+    # paper clips, falling against quadratic drag. Tracker's project holds the peer's
+    # clicks on two of them: "cup 3" (2 clips) and "cup 7" (6 clips). The physics:
+    # each falls as y = (v_t²/g)·ln cosh(g·t/v_t), and with the same shape and drag
+    # v_t² is proportional to the mass, cup + clips (the frame says a cup is 0.9
+    # clips), so v_t(cup 7)/v_t(cup 3) = √(6.9/2.9) = 1.54.
+    Clip("CupsClips.zip", "cup 3", "cup3=white@204,35", "drag", mass_clips=2.9),
+    Clip("CupsClips.zip", "cup 7", "cup7=white@252,36", "drag", mass_clips=6.9),
 )
+
+#: Free fall, m/s² (the drag fits take it as known).
+G = 9.80
 
 
 def _extract(repo: Path, name: str) -> Path | None:
@@ -98,18 +113,24 @@ def _props(obj: ET.Element) -> dict[str, ET.Element]:
 
 
 def peer_project(trz: Path, mass: str, which: str = ""
-                 ) -> tuple[Path, dict[int, tuple[float, float]], float]:
-    """The project's video (extracted), the peer's clicks {frame: (x, y) px} on the point
-    mass ``mass``, and the scale (px per metre) of its tape measure or coordinate system.
-    ``which`` picks the ``.trk`` whose name holds it, when the project has several."""
+                 ) -> tuple[Path, float | None, dict[int, tuple[float, float]], float]:
+    """The project's video (extracted: a file, or the folder of its pictures), its frame
+    rate when it is pictures (from Tracker's ``delta_t``, ms), the peer's clicks
+    {frame: (x, y) px} on the point mass ``mass``, and the scale (px per metre) of its
+    tape measure or coordinate system. ``which`` picks the ``.trk`` whose name holds
+    it, when the project has several."""
     folder = trz.with_suffix("")
     with zipfile.ZipFile(trz) as z:
         z.extractall(folder)
         trk = next(n for n in z.namelist() if n.endswith(".trk") and which in n)
     root = ET.parse(folder / trk).getroot()
-    video = (folder / trk).parent / next(
-        p.text for p in root.iter("property")
-        if p.get("name") == "path" and (p.text or "").endswith((".mp4", ".mov")))
+    path = next(p.text for p in root.iter("property")
+                if p.get("name") == "path"
+                and (p.text or "").lower().endswith((".mp4", ".mov", ".jpg", ".png")))
+    video, fps = (folder / trk).parent / path, None
+    if video.suffix.lower() in (".jpg", ".png"):
+        delta = next(p.text for p in root.iter("property") if p.get("name") == "delta_t")
+        video, fps = video.parent, 1000.0 / float(delta)
     clicks: dict[int, tuple[float, float]] = {}
     scale = float("nan")
     for obj in root.iter("object"):
@@ -123,7 +144,7 @@ def peer_project(trz: Path, mass: str, which: str = ""
                 frame = int(item.get("name").strip("[]"))
                 data = _props(item.find("object"))
                 clicks[frame] = (float(data["x"].text), float(data["y"].text))
-    return video, clicks, scale
+    return video, fps, clicks, scale
 
 
 def parabola_g(t: np.ndarray, xy: np.ndarray, px_per_m: float
@@ -133,6 +154,21 @@ def parabola_g(t: np.ndarray, xy: np.ndarray, px_per_m: float
     X = np.vander(t - t.mean(), 3)
     coef = np.linalg.lstsq(X, xy, rcond=None)[0]
     return float(np.hypot(*(2 * coef[0])) / px_per_m), xy - X @ coef
+
+
+def drag_fall(t: NDArray, y: NDArray) -> tuple[float, NDArray]:
+    """Terminal speed (in ``y``'s units per s) of a fall from rest against quadratic
+    drag, y = y0 + (v²/g)·ln cosh(g·(t − t0)/v) with g = :data:`G` (y in metres,
+    down), fitted by least squares over y0, t0 and v; and the fit's residual."""
+    from scipy.optimize import least_squares
+
+    def model(p: NDArray) -> NDArray:
+        y0, t0, v = p
+        return y0 + v**2 / G * np.log(np.cosh(G * (t - t0) / v))
+
+    slope = float(np.max(np.diff(y) / np.diff(t)))
+    fit = least_squares(lambda p: model(p) - y, [y[0], t[0], max(slope, 0.1)])
+    return float(fit.x[2]), y - model(fit.x)
 
 
 def period_frames(xy: NDArray, shortest: int = 5) -> int:
@@ -160,24 +196,26 @@ def repeat_coverage(xy: NDArray, sigma: NDArray, lag: int) -> float:
     return float(np.mean(np.abs(d[keep]) <= np.broadcast_to(s, d.shape)[keep]))
 
 
-def decode_seconds(video: Path) -> float:
+def decode_seconds(video: Path, fps: float | None) -> float:
     t0 = time.perf_counter()
-    for f in open_frames(video).frames():
+    for f in open_frames(video, fps).frames():
         f.rgb  # noqa: B018 - converting is part of what tracking must do
     return time.perf_counter() - t0
 
 
-def run_clip(repo: Path, clip: Clip) -> None:
+def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
+    """Track one clip, print its figures, and return those a later line compares
+    across clips (a drag fall's terminal speed, ours and the peer's, m/s)."""
     trz = _extract(repo, clip.trz)
     if trz is None:
         print(f"{clip.trz}: not in {repo}; skipped")
-        return
-    video, clicks, scale = peer_project(trz, clip.mass, clip.trk)
+        return {}
+    video, fps, clicks, scale = peer_project(trz, clip.mass, clip.trk)
     specs = parse_markers([clip.marker])
     t0 = time.perf_counter()
-    result = track(open_frames(video), specs)
+    result = track(open_frames(video, fps), specs)
     track_s = time.perf_counter() - t0
-    decode_s = decode_seconds(video)
+    decode_s = decode_seconds(video, fps)
     tab = result.tracks
     name = specs[0].name
     peer_frames = np.array(sorted(clicks))
@@ -194,7 +232,7 @@ def run_clip(repo: Path, clip: Clip) -> None:
         print("  too few frames found to compare with the peer or the physics")
         print(f"  time: tracking {track_s:.2f} s, decoding alone {decode_s:.2f} s "
               f"(ratio decode/track {decode_s / track_s:.2f})")
-        return
+        return {}
     diff = ours[ok] - theirs[ok]
     offset = diff.mean(axis=0)
     rms = float(np.sqrt(np.mean(np.sum((diff - offset) ** 2, axis=1))))
@@ -218,6 +256,21 @@ def run_clip(repo: Path, clip: Clip) -> None:
         r1 = [float(np.corrcoef(resid[:-1, i], resid[1:, i])[0, 1]) for i in range(2)]
         print(f"  parabola residual lag-1 correlation x {r1[0]:+.2f}, y {r1[1]:+.2f} "
               "(near 0 for noise; near +1 when the residual is the model's, not the track's)")
+    figures: dict[str, float] = {}
+    if clip.physics == "drag":
+        # Down the image in metres (the peer's scale), from rest on the bar.
+        v_ours, resid = drag_fall(t[ok], ours[ok, 1] / scale)
+        v_peer, resid_peer = drag_fall(t, theirs[:, 1] / scale)
+        sigma = rows[f"{name}_sigma_px"].to_numpy(float)[ok]
+        inside = np.abs(resid * scale) <= sigma
+        figures = {"v_ours": v_ours, "v_peer": v_peer}
+        print(f"  quadratic drag: terminal speed {v_ours:.3f} m/s from our track, "
+              f"{v_peer:.3f} from the peer's clicks; residual RMS "
+              f"{np.sqrt(np.mean(resid**2)) * scale:.2f} px ours, "
+              f"{np.sqrt(np.mean(resid_peer**2)) * scale:.2f} px the peer's "
+              f"(scale {scale:.1f} px/m from the peer's coordinate system)")
+        print(f"  ±1σ coverage of our σ (median {np.median(sigma):.3f} px) against the "
+              f"drag fall (y): {100 * inside.mean():.0f} % (aim 50–90 %)")
     if clip.physics == "periodic":
         # The period from the peer's clicks, so that our track is not judged by itself.
         theirs_all = np.array([clicks.get(f, (np.nan, np.nan)) for f in tab["frame"]])
@@ -235,6 +288,20 @@ def run_clip(repo: Path, clip: Clip) -> None:
               "coordinates (aim 50–90 %)")
     print(f"  time: tracking {track_s:.2f} s, decoding alone {decode_s:.2f} s "
           f"(ratio decode/track {decode_s / track_s:.2f}; aim ≥ 0.9 on clips over 10 s)")
+    return figures
+
+
+def compare_drag(falls: dict[Clip, dict[str, float]]) -> None:
+    """Terminal speeds against each other: v_t² ∝ mass for cups of one shape."""
+    done = [(c, f) for c, f in falls.items() if f]
+    for (a, fa), (b, fb) in itertools.pairwise(done):
+        want = np.sqrt(b.mass_clips / a.mass_clips)
+        for who in ("ours", "peer"):
+            got = fb[f"v_{who}"] / fa[f"v_{who}"]
+            source = "our track" if who == "ours" else "the peer's clicks"
+            print(f"  terminal speed {b.mass} / {a.mass} from {source}: {got:.3f} against "
+                  f"√({b.mass_clips}/{a.mass_clips}) = {want:.3f} "
+                  f"({100 * (got / want - 1):+.1f} %)")
 
 
 def main() -> None:
@@ -243,8 +310,14 @@ def main() -> None:
               "its git directory); no path given, nothing measured")
         return
     repo = Path(sys.argv[1])
+    falls = {}
     for clip in CLIPS:
-        run_clip(repo, clip)
+        figures = run_clip(repo, clip)
+        if clip.physics == "drag":
+            falls[clip] = figures
+    if falls:
+        print("\nCupsClips: terminal speeds against the masses (drag ∝ v², one shape)")
+        compare_drag(falls)
 
 
 if __name__ == "__main__":

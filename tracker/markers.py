@@ -176,6 +176,9 @@ class Blob:
     area: float
     fill: float
     aspect: float
+    #: The largest disc inside a blob of another shape (a ball with a stalk): the
+    #: disc is given, and the blob it was cut from was not a disc (:func:`find_blobs`).
+    cored: bool = False
 
     @property
     def radius(self) -> float:
@@ -185,6 +188,34 @@ class Blob:
     def disc_like(self) -> bool:
         """Roughly a disc (partly covered or blurred discs still pass)."""
         return 0.45 <= self.fill <= 0.95 and 0.4 <= self.aspect <= 2.5
+
+    @property
+    def half_length(self) -> float:
+        """Half the longer side of the blob's bounding box, px (from its area, fill and
+        aspect)."""
+        box = self.area / self.fill
+        return 0.5 * float(np.sqrt(box * max(self.aspect, 1.0 / self.aspect)))
+
+    @property
+    def half_width(self) -> float:
+        """Half the shorter side of the blob's bounding box, px."""
+        box = self.area / self.fill
+        return 0.5 * float(np.sqrt(box * min(self.aspect, 1.0 / self.aspect)))
+
+    def elongated(self) -> bool:
+        """Not a disc to fit a disc to: filling its box like a square, or longer one way
+        than 1.6:1 and still filling most of its box (a strip of tape; a ball with a
+        stalk of its colour fills 0.6 of its box, and is a disc with something
+        attached). A disc fitted to a strip slides along it: on 8×3.5 px strips it
+        was off by 0.4 px along the strip. (A streak's thresholded blob can look
+        round: its faint ends fall below the threshold; the coverage's moments
+        tell, :attr:`.Centre.length_px`.)"""
+        return self.fill > 0.92 or (not 1 / 1.6 <= self.aspect <= 1.6 and self.fill >= 0.8)
+
+    def solid(self) -> bool:
+        """Filling its box as a disc, an ellipse or a stadium does (≥ 0.65), not as a
+        ball with a stalk, or a cross, does (nor cut from such a blob)."""
+        return self.fill >= 0.65 and not self.cored
 
     def compact(self) -> bool:
         """A compact blob of any shape people make markers in: a disc, a square (fill
@@ -240,7 +271,7 @@ def _core(blob: Blob, labels: NDArray, dist: NDArray, k: int, box: NDArray,
     if radius < 2.0 or np.pi * radius**2 < CORE_FRACTION * blob.area:
         return blob
     return Blob(float(bx + j + x0), float(by + i + y0), float(np.pi * radius**2),
-                float(np.pi / 4), 1.0)
+                float(np.pi / 4), 1.0, cored=True)
 
 
 #: The blob areas taken for a marker of known size, as multiples of its area.

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from .centre import Centre, weighted_centroid
+from .centre import Centre, blob_centroid, weighted_centroid
 from .coverage import local_coverage
 from .disc import fit_disc, fit_disc_cells
 from .edges import fit_edges
@@ -138,3 +138,36 @@ def _rim(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius: f
             break
         guess = (fit.x, fit.y)
     return fit, seen
+
+
+def refine_blob(image: Frame | NDArray[np.uint8], guess: tuple[float, float],
+                reach_px: float, extent_px: float, width_px: float,
+                marker: NDArray | None = None, luminance: bool = False
+                ) -> tuple[Centre, NDArray | None]:
+    """Centre of a marker that is not a disc (a strip of tape, a square, a streak):
+    the centroid of its coverage (:func:`.centre.blob_centroid`).
+
+    ``guess`` is where it should be (image px), within ``reach_px``; ``extent_px``
+    how far it may reach from its centre (half its length, and half its last step
+    for a streak), ``width_px`` half its shorter side. The coverage's background
+    ring lies beyond ``extent_px`` and the reach, and is laid again around the
+    centre found while that moves by more than half a pixel. Without ``marker``
+    (an acquisition) its colour is the middle's, within ``width_px`` of ``guess``.
+    Returns the centre and the colour seen in its middle (within ``width_px``).
+    """
+    def middle(at: tuple[float, float]) -> NDArray:
+        patch, x0, y0 = patch_around(image, at[0], at[1], width_px + 8)
+        return local_coverage(patch, x0, y0, at, width_px / 0.6, None, luminance)[1]
+
+    if marker is None:
+        marker = middle(guess)
+    fit = Centre(np.nan, np.nan, np.nan, np.nan, False)
+    for _ in range(3):
+        radius = extent_px + reach_px
+        patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 6)
+        alpha, _ = local_coverage(patch, x0, y0, guess, radius, marker, luminance)
+        fit = blob_centroid(alpha, x0, y0, guess, reach_px + 1.0)
+        if not fit.ok or np.hypot(fit.x - guess[0], fit.y - guess[1]) <= 0.5:
+            break
+        guess, reach_px = (fit.x, fit.y), 1.0
+    return fit, (middle((fit.x, fit.y)) if fit.ok else None)

@@ -37,7 +37,7 @@ from .markers import (
     learn_spec,
 )
 from .outline import shaded
-from .refine import patch_around, refine
+from .refine import patch_around, refine, refine_blob
 from .scatter import with_scatter_floor
 from .search import full_frame_blob, full_hsv, other_blobs, search_whole_frame, window
 from .video import Frame, FrameSource, timing_report
@@ -88,8 +88,11 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict
             # is only needed when that fails (fast motion, occlusion, a jump).
             if r + 2 <= pred[0] <= w - r - 3 and r + 2 <= pred[1] <= h - r - 3:
                 luminance = bool(state.spec.tone)
-                centre, seen = refine(frame, pred, r, state.marker, init=state.shape,
-                                      luminance=luminance, rim=state.rim)
+                if state.extent is not None:
+                    centre, seen = state.blob_centre(frame, pred, state.motion_px() + 1.0)
+                else:
+                    centre, seen = refine(frame, pred, r, state.marker, init=state.shape,
+                                          luminance=luminance, rim=state.rim)
                 if _plausible(centre, pred, state):
                     if not state.whole(centre):
                         return None, "partly_covered"
@@ -141,6 +144,11 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
         state.spec = learn_spec(state.spec, hsv_patch, (blob.x, blob.y), radius, x0, y0)
         state.learned = True
     luminance = bool(state.spec.tone)
+    if state.rim is None and not state.spec.flat and state.extent is None:
+        _decide_blob(frame, state, blob)
+    if state.extent is not None:
+        centre, seen = state.blob_centre(frame, (blob.x, blob.y), 2.0)
+        return _whole_and_honest(state, centre, seen)
     centre, seen = refine(frame, (blob.x, blob.y), radius, state.marker, luminance=luminance,
                           rim=state.rim)
     if (state.rim is None or state.spec.flat) and centre.ok:
@@ -166,6 +174,34 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
         elif not state.rim and centre.rim:
             return None, None, "refine_failed"  # a flat marker's disc fit failed
     return _whole_and_honest(state, centre, seen)
+
+
+#: A blob whose coverage is longer than wide by this (its second moments) is a
+#: strip or a streak, not a disc: a disc fitted to a streak 2.5× as long as wide
+#: was off by 0.3–0.5 px along it, its centroid by 0.01–0.03.
+ELONGATION = 1.6
+
+
+#: ...and symmetric along its length: a ball with bonds of its colour (a Jmol atom
+#: on Tracker's jmoljana clip, skew 0.31) is long one way too, but lopsided; a
+#: drawn streak's is 0.003.
+SKEW = 0.2
+
+
+def _decide_blob(frame: Frame, state: MarkerState, blob: Blob) -> None:
+    """At a marker's first acquisition: is it a strip, a square or a streak (centred by
+    its coverage's centroid from now on, ``state.extent``), or a disc or ball?
+    Decided once, by the thresholded blob's box or, for a streak whose faint ends
+    fell below the threshold, by its coverage's second moments."""
+    if blob.elongated():
+        state.extent, state.rim = (blob.half_length + 0.5, blob.half_width), False
+        return
+    if not blob.solid():
+        return
+    probe, _ = refine_blob(frame, (blob.x, blob.y), 2.0, 2.0 * blob.half_length + 2.0,
+                           blob.half_width, None, bool(state.spec.tone))
+    if probe.ok and probe.length_px > ELONGATION * probe.width_px and abs(probe.skew) < SKEW:
+        state.extent, state.rim = (probe.length_px + 0.5, probe.width_px), False
 
 
 def _whole_and_honest(state: MarkerState, centre: Centre, seen: NDArray | None
