@@ -2,7 +2,7 @@
 
 Each marker is *acquired* by a full-frame colour search (the first frame,
 and again whenever it is lost), then *followed* in a small window around a
-constant-velocity prediction, so most frames touch only a few thousand
+constant-acceleration prediction, so most frames touch only a few thousand
 pixels per marker. Its colour window is learned from the first acquisition,
 its size over the first frames it is found in (:data:`.marker_state.LEARN_FINDS`).
 Every found blob is refined to a sub-pixel centre with a 1-σ
