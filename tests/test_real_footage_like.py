@@ -400,3 +400,21 @@ def test_a_motion_blurred_streak_is_centred_at_the_middle_of_its_exposure():
     assert statuses == ["ok"] * 8, statuses
     assert max(errors) < 0.15, errors
     assert state.markers[0].extent is not None  # followed as a streak, not a disc
+
+
+def test_a_marker_lost_for_a_second_is_looked_for_less_often_and_found_when_back():
+    # A lost marker's window searched every frame cost as much as decoding on a webcam
+    # clip; after 30 frames missed it is looked for on every 4th frame only, and says
+    # so, and once back it is found within 4 frames.
+    state = TrackerState.start(parse_markers(["dot=red@70,60"]))
+    disc = [(70.0, 60.0, 6.0, (220.0, 40.0, 40.0))]
+    statuses = []
+    for k in range(60):
+        image = draw(disc if k < 5 or k >= 45 else [], background=(150.0, 150.0, 145.0),
+                     seed=k)
+        statuses.append(locate(image, state=state, t_s=k / 30).loc[0, "status"])
+    assert statuses[:5] == ["ok"] * 5
+    assert set(statuses[5:35]) == {"not_found"}, statuses[5:35]
+    assert statuses[35:45].count("not_sought") >= 6, statuses[35:45]
+    back = statuses[45:].index("ok")
+    assert back < 4 and set(statuses[45 + back:]) == {"ok"}, statuses[45:]

@@ -13,7 +13,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .marker_state import MarkerState
-from .markers import AREA_GATE, Blob, acquire, balanced_hsv, find_blobs, white_balance_gains
+from .markers import (
+    AREA_GATE,
+    Blob,
+    MarkerSpec,
+    acquire,
+    balanced_hsv,
+    find_blobs,
+    white_balance_gains,
+)
 from .video import Frame
 
 #: A marker that is not where it was looked for is sought in the whole frame only
@@ -44,6 +52,22 @@ def window(state: MarkerState) -> float:
     return (3.0 * r + 2.0 * state.motion_px() + 4.0) * 2.0 ** min(state.missed, 2)
 
 
+#: A marker missed for this many frames (a second at 30 fps) has its window
+#: searched only every :data:`WINDOW_EVERY` frames: it has left, or is hidden, and
+#: on a webcam clip the windows of two such markers cost as much as decoding the
+#: frames. A marker hidden for less (a hand passing) is looked for in every frame.
+WINDOW_BACKOFF_MISSED = 30
+WINDOW_EVERY = 4
+
+
+def search_window(state: MarkerState) -> bool:
+    """Is this frame one where the window around the marker's prediction is searched?
+    Every frame until it has been missed :data:`WINDOW_BACKOFF_MISSED` times, then
+    every :data:`WINDOW_EVERY` frames (so a marker back in view is found within
+    that many frames)."""
+    return state.missed < WINDOW_BACKOFF_MISSED or state.missed % WINDOW_EVERY == 0
+
+
 def search_whole_frame(state: MarkerState, pred: tuple[float, float] | None) -> bool:
     """Is this frame one where the whole frame is searched for the marker?"""
     if pred is None or len(state.history) < 2:
@@ -63,12 +87,23 @@ def full_hsv(frame: Frame, hsv_cache: dict) -> NDArray[np.uint8]:
     return hsv_cache["full"]
 
 
+def full_blobs(frame: Frame, spec: MarkerSpec, hsv_cache: dict) -> list[Blob]:
+    """The blobs of ``spec``'s colour in the whole frame, found once per frame: a marker
+    whose blob was not it looks at the others of its colour after its full-frame
+    search has found them (on a webcam clip, 101 such second looks cost 0.6 of 2.3 s)."""
+    found = hsv_cache.setdefault("blobs", {})
+    if spec not in found:
+        found[spec] = find_blobs(full_hsv(frame, hsv_cache), spec)
+    return found[spec]
+
+
 def full_frame_blob(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
                      pred: tuple[float, float] | None) -> tuple[Blob | None, str]:
     """The marker's blob in the whole frame, white-balanced (lost, or never seen)."""
     near = pred if pred is not None else state.spec.near_px
     blob, status, rivals = acquire(full_hsv(frame, hsv_cache), state.spec, state.area, near,
-                                   state.area_gates)
+                                   state.area_gates,
+                                   lambda spec: full_blobs(frame, spec, hsv_cache))
     if blob is not None and pred is None and near is not None and np.hypot(
             blob.x - near[0], blob.y - near[1]) > 4 * blob.radius + 20:
         return None, "not_found"  # not yet where the user said it is
@@ -92,7 +127,7 @@ def other_blobs(frame: Frame, state: MarkerState, hsv_cache: dict,
     the marker."""
     reach = (20.0 * (state.radius or tried.radius) + 3.0 * state.speed_px() if wide
              else np.sqrt(2.0) * window(state))
-    good = [b for b in find_blobs(full_hsv(frame, hsv_cache), state.spec)
+    good = [b for b in full_blobs(frame, state.spec, hsv_cache)
             if state.spec.takes(b)
             and (not state.area
                  or AREA_GATE[0] * state.area <= b.area <= AREA_GATE[1] * state.area)

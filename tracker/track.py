@@ -39,7 +39,14 @@ from .markers import (
 from .outline import shaded
 from .refine import patch_around, refine, refine_blob
 from .scatter import with_scatter_floor
-from .search import full_frame_blob, full_hsv, other_blobs, search_whole_frame, window
+from .search import (
+    full_frame_blob,
+    full_hsv,
+    other_blobs,
+    search_whole_frame,
+    search_window,
+    window,
+)
 from .video import Frame, FrameSource, timing_report
 
 #: Why a marker has no position in a frame (the ``_status`` column).
@@ -52,6 +59,8 @@ STATUSES = {
     "partly_covered": "the marker is there but does not look like a whole disc "
                       "(its fit residual is far above usual), so its centre is not trusted",
     "same_blob": "two markers were found on one blob; neither is kept there",
+    "not_sought": "lost for a second or more, so looked for only on some frames "
+                  "(tracker/search.py, search_window), not on this one",
 }
 
 #: Fitted coverage gain of a marker that is really there (≈ 1; an absent or
@@ -83,6 +92,8 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict
         r = state.radius
         if not (-r <= pred[0] <= w + r and -r <= pred[1] <= h + r):
             status = "out_of_view"
+        elif not search_window(state):
+            status = "not_sought"  # long lost: its window is searched only on some frames
         else:
             # Following: refine straight from the prediction; the colour search
             # is only needed when that fails (fast motion, occlusion, a jump).
