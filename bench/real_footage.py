@@ -227,7 +227,7 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
           f"{len(peer_frames)}): `--marker {clip.marker}`")
     print(f"  found in {ok.sum()} of the {len(peer_frames)} frames the peer clicked "
           f"({100 * ok.mean():.0f} %); statuses elsewhere: "
-          f"{dict(rows.loc[~ok, f'{name}_status'].value_counts())}")
+          f"{ {k: int(v) for k, v in rows.loc[~ok, f'{name}_status'].value_counts().items()} }")
     if ok.sum() < max(4, 0.25 * len(peer_frames)):
         print("  too few frames found to compare with the peer or the physics")
         print(f"  time: tracking {track_s:.2f} s, decoding alone {decode_s:.2f} s "
@@ -270,7 +270,8 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
               f"{np.sqrt(np.mean(resid_peer**2)) * scale:.2f} px the peer's "
               f"(scale {scale:.1f} px/m from the peer's coordinate system)")
         print(f"  ±1σ coverage of our σ (median {np.median(sigma):.3f} px) against the "
-              f"drag fall (y): {100 * inside.mean():.0f} % (aim 50–90 %)")
+              f"drag fall (y): {100 * inside.mean():.0f} % (aim 50–90 %); residual lag-1 "
+              f"correlation {float(np.corrcoef(resid[:-1], resid[1:])[0, 1]):+.2f}")
     if clip.physics == "periodic":
         # The period from the peer's clicks, so that our track is not judged by itself.
         theirs_all = np.array([clicks.get(f, (np.nan, np.nan)) for f in tab["frame"]])
