@@ -79,8 +79,11 @@ def test_a_dark_frame_is_not_white_balanced_into_other_hues():
 def test_the_user_says_which_of_two_same_colour_blobs_is_the_marker():
     image = draw([(50.0, 60.0, 5.0, WHITE), (180.0, 120.0, 5.0, WHITE)])
     for hint, x in (("@52,58", 50.0), ("@175,125", 180.0)):
-        found = locate(image, parse_markers([f"ball=white{hint}"])).set_index("marker")
+        state = TrackerState.start(parse_markers([f"ball=white{hint}"]))
+        found = locate(image, state=state).set_index("marker")
         assert abs(found.at["ball", "x_px"] - x) < 0.2
+        # Told where it is, the tracker does not warn that it guessed among the two.
+        assert not state.markers[0].notes
     # Nothing near the place given: not found there, rather than another blob.
     found = locate(image, parse_markers(["ball=white@120,20"])).set_index("marker")
     assert found.at["ball", "status"] == "not_found"

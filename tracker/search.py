@@ -107,7 +107,9 @@ def full_frame_blob(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
     if blob is not None and pred is None and near is not None and np.hypot(
             blob.x - near[0], blob.y - near[1]) > 4 * blob.radius + 20:
         return None, "not_found"  # not yet where the user said it is
-    if blob is not None and rivals and pred is None and not state.notes:
+    # Where the user said the marker is, the blob there was taken: the others are not
+    # a guess to warn of.
+    if blob is not None and rivals and pred is None and near is None and not state.notes:
         where = "; ".join(f"({r.x:.0f}, {r.y:.0f})" for r in rivals[:3])
         state.notes.append(
             f"marker {state.spec.name}: {1 + len(rivals)} blobs of its colour and size at "
