@@ -11,7 +11,7 @@ import os
 import pickle
 import platform
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -57,6 +57,7 @@ from .run_folder import (
     run_folder,
 )
 from .tracker.gaps import fill_gaps
+from .tracker.marker_state import MarkerState
 from .tracker.markers import DEFAULT_MARKERS, MarkerSpec
 from .tracker.track import Roi, Span, TrackerState, TrackingInterrupted, track, tracks_table
 from .tracker.video import FrameSource, open_frames
@@ -78,6 +79,13 @@ def _load_state(path: Path, video: str | os.PathLike, roi: Roi | None = None) ->
         state = saved["state"]
     except (OSError, pickle.UnpicklingError, KeyError, EOFError, AttributeError) as e:
         raise CranktrackError(f"{path} cannot be read ({e}); run again without --resume") from None
+    # A state saved by an older cranktrack lacks what the tracker has learned to keep
+    # since (a marker's motion, shape, usual gain): resuming it would fail mid-run.
+    wanted = {f.name for f in fields(MarkerState)}
+    markers = getattr(state, "markers", None)
+    if markers is None or any(not wanted <= set(vars(st)) for st in markers):
+        raise CranktrackError(f"{path} was saved by an older cranktrack; run again without "
+                              "--resume")
     if saved.get("video") != str(Path(video).resolve()):
         raise CranktrackError(f"the run in {path.parent} was tracking {saved.get('video')}, "
                               f"not {video}; resume it with that video")

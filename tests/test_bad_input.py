@@ -432,3 +432,27 @@ def test_ctrl_c_while_the_command_line_loads_is_one_sentence(monkeypatch, capsys
     assert entry.console() == 130
     err = capsys.readouterr().err.strip()
     assert err == "cranktrack: interrupted while starting; nothing was written"
+
+
+def test_a_state_saved_by_an_older_cranktrack_is_refused_in_one_sentence(small_h264, tmp_path):
+    # The tracker keeps more for each marker than it once did (its motion, shape and
+    # usual gain): a state saved before that would fail mid-run on --resume.
+    import pickle
+
+    from cranktrack.pipeline import track_run
+
+    def interrupt(index):
+        if index == 5:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        track_run(small_h264.video, tmp_path, ("A", "C", 160.8), on_frame=interrupt)
+    path = tmp_path / ".tracker_state.pkl"
+    saved = pickle.loads(path.read_bytes())
+    for st in saved["state"].markers:
+        del st.surprise_px  # as an older version had no such field
+    path.write_bytes(pickle.dumps(saved))
+    p = _run("track", str(small_h264.video), "--out", str(tmp_path), "--known-length",
+             "A-C=160.8", "--resume")
+    assert p.returncode == 1 and "saved by an older cranktrack" in p.stderr
+    assert "Traceback" not in p.stderr and len(p.stderr.strip().splitlines()) == 1

@@ -145,7 +145,7 @@ class MarkerState:
         Fixes may be a frame or two apart (a marker missed in between): the fit is
         in time, so the gap is allowed for. On a falling cup (Tracker's CupsClips,
         10 fps) the line missed by 4–9 px, twice its size, and every frame fell back
-        to the window search; the parabola misses by under a pixel."""
+        to the window search; the parabola missed by 1.4–2.7 px."""
         if not self.history:
             return None
         t1, x1, y1 = self.history[-1]
