@@ -47,6 +47,10 @@ def _count(text: str) -> int:
     return int(_number(text, whole=True, zero_ok=True))
 
 
+def _positive_int(text: str) -> int:
+    return int(_number(text, whole=True, zero_ok=False))
+
+
 def _non_negative(text: str) -> float:
     return _number(text, whole=False, zero_ok=True)
 
@@ -198,6 +202,9 @@ def _inspect_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--at", type=_non_negative, default=0.0, metavar="SECONDS",
                    help="time of the frame to inspect (0: the first)")
     p.add_argument("--fps", type=_positive, help="frame rate of an image folder")
+    p.add_argument("--most", type=_positive_int, default=12, metavar="N",
+                   help="list this many candidates, the most marker-like first (default: 12; "
+                   "more when several markers look alike, e.g. a row of paper cups)")
     p.add_argument("--out", help="PNG to write (default: VIDEO_inspect.png beside the video)")
 
 

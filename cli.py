@@ -317,7 +317,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
             break
     if frame is None:
         raise CranktrackError(f"{video} has no frames")
-    table = survey(frame.rgb)
+    table = survey(frame.rgb, most=args.most)
     out = Path(args.out) if args.out else video.with_name(video.stem + "_inspect.png")
     write_survey_png(out, frame.rgb, table)
     if table.empty:
@@ -326,7 +326,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     else:
         rows = [["--marker", "colour", "x px", "y px", "radius px", "shape"]]
         rows += [[r.marker, r["name"], f"{r.x_px:.0f}", f"{r.y_px:.0f}", f"{r.radius_px:.1f}",
-                  "disc" if r.disc_like else f"strip (aspect {r.aspect:.1f})"]
+                  "disc" if r.disc_like and not r.strip else f"strip (aspect {r.aspect:.1f})"]
                  for _, r in table.iterrows()]
         print(f"frame {frame.index} (t = {frame.t_s:.3f} s): {len(table)} candidate markers, "
               "most marker-like first")

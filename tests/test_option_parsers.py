@@ -11,7 +11,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cranktrack.arguments import _count, _non_negative, _positive, _roi, _size, _time_or_frame
+from cranktrack.arguments import (
+    _count,
+    _non_negative,
+    _positive,
+    _positive_int,
+    _roi,
+    _size,
+    _time_or_frame,
+)
 from cranktrack.calibration.known_length import parse_known_length
 from cranktrack.cli import parse_board, parse_effects, parse_known
 from cranktrack.errors import CranktrackError
@@ -39,7 +47,8 @@ def _either(parse, text, error):
 @given(text=typed)
 def test_numbers_are_finite_and_of_the_right_sign(text):
     for parse, ok in ((_positive, lambda v: v > 0), (_non_negative, lambda v: v >= 0),
-                      (_count, lambda v: v >= 0 and v == int(v))):
+                      (_count, lambda v: v >= 0 and v == int(v)),
+                      (_positive_int, lambda v: v > 0 and v == int(v))):
         v = _either(parse, text, argparse.ArgumentTypeError)
         finite = isinstance(v, int) or (v is not None and math.isfinite(v))
         assert v is None or (finite and ok(v)), (parse.__name__, text, v)

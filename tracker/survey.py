@@ -31,7 +31,8 @@ def survey(rgb: NDArray[np.uint8], min_area_px: int = 12, most: int = 12) -> pd.
 
     Returns a table with ``x_px``, ``y_px`` (blob centroid), ``radius_px`` (of a
     disc of the same area), ``fill`` (area over its box; π/4 for a disc),
-    ``aspect``, ``colour`` (``white``, ``black`` or the hue in degrees,
+    ``aspect``, ``strip`` (a strip or a square, centred by its coverage's centroid
+    when tracked), ``colour`` (``white``, ``black`` or the hue in degrees,
     rounded), ``name`` (the nearest colour name, for people) and ``marker``: the
     ``--marker`` value that follows it, e.g. ``m1=120@312,99``. Blobs found in
     two overlapping hue windows are listed once; strips and streaks are kept
@@ -52,9 +53,9 @@ def survey(rgb: NDArray[np.uint8], min_area_px: int = 12, most: int = 12) -> pd.
                 colour, name = f"{spec.hue_deg:.0f}", _colour_name(spec.hue_deg)
             rows.append({"x_px": b.x, "y_px": b.y, "radius_px": b.radius, "area_px": b.area,
                          "fill": b.fill, "aspect": b.aspect, "colour": colour, "name": name,
-                         "disc_like": b.disc_like()})
+                         "disc_like": b.disc_like(), "strip": b.elongated()})
     table = pd.DataFrame(rows, columns=["x_px", "y_px", "radius_px", "area_px", "fill",
-                                        "aspect", "colour", "name", "disc_like"])
+                                        "aspect", "colour", "name", "disc_like", "strip"])
     if table.empty:
         return table.assign(marker=pd.Series(dtype=str))
     # Most marker-like first: disc-like, of a marker's size (a hand or a sign is larger
