@@ -376,7 +376,8 @@ def test_a_falling_cup_is_followed_past_its_neighbours_and_not_swapped_for_one()
     gone = [r for r in rows if r[2] > 120 + 4]
     assert len(inside) >= 6 and len(gone) >= 2
     assert [r[3] for r in inside] == ["ok"] * len(inside), rows
-    assert max(np.hypot(r[4] - r[1], r[5] - r[2]) for r in inside) < 0.3, rows
+    # (The drawing puts edges on a 1/8 px grid, so the truth itself is good to ~0.03 px.)
+    assert max(np.hypot(r[4] - r[1], r[5] - r[2]) for r in inside) < 0.15, rows
     # Gone below the frame: not found, and never on a neighbour.
     assert all(r[3] != "ok" for r in gone), rows
 
