@@ -145,13 +145,13 @@ def blob_centroid(alpha: NDArray, x0: float, y0: float, guess: tuple[float, floa
     dx, dy = xx[blob] - cx, yy[blob] - cy
     var_x = float((dx**2).sum()) * noise**2 / total**2
     var_y = float((dy**2).sum()) * noise**2 / total**2
-    w = a[blob] / total
-    moments = np.array([[(w * dx * dx).sum(), (w * dx * dy).sum()],
-                        [(w * dx * dy).sum(), (w * dy * dy).sum()]])
+    weight = a[blob] / total
+    moments = np.array([[(weight * dx * dx).sum(), (weight * dx * dy).sum()],
+                        [(weight * dx * dy).sum(), (weight * dy * dy).sum()]])
     variances, axes = np.linalg.eigh(moments)
     lo, hi = np.sqrt(3.0 * np.clip(variances, 0.0, None))
     along = dx * axes[0, 1] + dy * axes[1, 1]
-    skew = float((w * along**3).sum() / max(variances[1], 1e-12) ** 1.5)
+    skew = float((weight * along**3).sum() / max(variances[1], 1e-12) ** 1.5)
     return Centre(cx + x0, cy + y0, float(np.sqrt(max(var_x, var_y))),
                   float(np.sqrt(total / np.pi)), True, gain=float(np.percentile(a[core], 90)),
                   area=total, length_px=float(hi), width_px=float(lo), skew=skew)

@@ -9,8 +9,6 @@ from numpy.typing import NDArray
 
 from .centre import Centre
 from .markers import AREA_GATE, MarkerSpec
-from .refine import refine_blob
-from .video import Frame
 
 #: A fit whose residual exceeds this many times the marker's usual residual is
 #: not a whole disc (partly covered, or something of its colour touching it).
@@ -194,15 +192,6 @@ class MarkerState:
         the step took a neighbouring cup of the same colour as it left the view)."""
         step = self.speed_px()
         return step if self.surprise_px is None else min(step, 2.0 * self.surprise_px + 1.0)
-
-    def blob_centre(self, frame: Frame | NDArray, guess: tuple[float, float], reach_px: float
-                    ) -> tuple[Centre, NDArray | None]:
-        """Centre of this non-disc marker near ``guess`` (px) within ``reach_px``: its
-        length plus half its last step (a streak is as long as the motion in the
-        exposure, at most a step)."""
-        length, width = self.extent
-        return refine_blob(frame, guess, reach_px, length + 0.5 * self.speed_px(), width,
-                           self.marker, bool(self.spec.tone))
 
     def speed_px(self) -> float:
         """Displacement between the last two fixes, px."""

@@ -11,8 +11,10 @@ Each fit works on the marker's coverage image (:mod:`.coverage`):
 - :func:`.edges.fit_edges`: where every pixel has its own colour, the luminance
   of the edge's clean sectors is added (most of the information is there).
 - :func:`.outline.fit_outline`: the circle through the rim, for a shaded ball.
+- :func:`.centre.blob_centroid`: the centroid of the coverage of a marker that is
+  not a disc (a strip, a square, a motion-blurred streak), by :func:`refine_blob`.
 
-:func:`refine` chooses among them for one marker in one frame.
+:func:`refine` chooses among the first four for one marker in one frame.
 ``bench/accuracy.py`` measures them against ``truth.csv`` and the
 Cramér–Rao bound; ``bench/README.md`` says which won.
 """

@@ -100,7 +100,7 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict
             if r + 2 <= pred[0] <= w - r - 3 and r + 2 <= pred[1] <= h - r - 3:
                 luminance = bool(state.spec.tone)
                 if state.extent is not None:
-                    centre, seen = state.blob_centre(frame, pred, state.motion_px() + 1.0)
+                    centre, seen = _blob_centre(frame, state, pred, state.motion_px() + 1.0)
                 else:
                     centre, seen = refine(frame, pred, r, state.marker, init=state.shape,
                                           luminance=luminance, rim=state.rim)
@@ -158,7 +158,7 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
     if state.rim is None and not state.spec.flat and state.extent is None:
         _decide_blob(frame, state, blob)
     if state.extent is not None:
-        centre, seen = state.blob_centre(frame, (blob.x, blob.y), 2.0)
+        centre, seen = _blob_centre(frame, state, (blob.x, blob.y), 2.0)
         return _whole_and_honest(state, centre, seen)
     centre, seen = refine(frame, (blob.x, blob.y), radius, state.marker, luminance=luminance,
                           rim=state.rim)
@@ -185,6 +185,16 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
         elif not state.rim and centre.rim:
             return None, None, "refine_failed"  # a flat marker's disc fit failed
     return _whole_and_honest(state, centre, seen)
+
+
+def _blob_centre(frame: Frame, state: MarkerState, guess: tuple[float, float],
+                 reach_px: float) -> tuple[Centre, NDArray | None]:
+    """Centre of a marker that is not a disc near ``guess`` (px), within ``reach_px``:
+    it may reach its half-length plus half its last step from its centre (a streak
+    is as long as the motion in the exposure, at most a step)."""
+    length, width = state.extent
+    return refine_blob(frame, guess, reach_px, length + 0.5 * state.speed_px(), width,
+                       state.marker, bool(state.spec.tone))
 
 
 #: A blob whose coverage is longer than wide by this (its second moments) is a
