@@ -189,18 +189,20 @@ class Blob:
         """Roughly a disc (partly covered or blurred discs still pass)."""
         return 0.45 <= self.fill <= 0.95 and 0.4 <= self.aspect <= 2.5
 
+    def _half_side(self, longer: bool) -> float:
+        """Half a side of the blob's bounding box, px (from its area, fill and aspect)."""
+        stretch = max(self.aspect, 1.0 / self.aspect)
+        return 0.5 * float(np.sqrt(self.area / self.fill * (stretch if longer else 1 / stretch)))
+
     @property
     def half_length(self) -> float:
-        """Half the longer side of the blob's bounding box, px (from its area, fill and
-        aspect)."""
-        box = self.area / self.fill
-        return 0.5 * float(np.sqrt(box * max(self.aspect, 1.0 / self.aspect)))
+        """Half the longer side of the blob's bounding box, px."""
+        return self._half_side(True)
 
     @property
     def half_width(self) -> float:
         """Half the shorter side of the blob's bounding box, px."""
-        box = self.area / self.fill
-        return 0.5 * float(np.sqrt(box * min(self.aspect, 1.0 / self.aspect)))
+        return self._half_side(False)
 
     def elongated(self) -> bool:
         """Not a disc to fit a disc to: filling its box like a square, or longer one way
