@@ -366,9 +366,10 @@ def loop_speed() -> None:
 def open_world_models(nulls: int) -> None:
     """The dynamic and SMA models' loops on θ(t) from their beds built apart from the
     fitter (:mod:`cranktrack.synthetic.free_swing`, :mod:`cranktrack.synthetic.sma_rig`),
-    in memory with the same AR(1) noise as :func:`open_world`: the dry friction and the
-    thermal lag at three sizes each, ``nulls`` null series per model, and each loop's
-    time on a minute of θ."""
+    in memory with the same AR(1) noise as :func:`open_world`: the free swing's dry
+    friction and play, the SMA bed's thermal lag and dry friction, each at several
+    sizes, ``nulls`` null series per model, and the dynamic loop's time on a minute
+    of θ."""
     from dataclasses import replace as with_
 
     from cranktrack.synthetic.mechanism import measured_table
@@ -378,29 +379,39 @@ def open_world_models(nulls: int) -> None:
     current = current_step(1.3, 0.5, 3.0)
     sma_known = {"current_A": 1.3, "current_on_s": 0.5, "current_off_s": 3.0}
 
-    def free(mu: float, seed: int, t: np.ndarray) -> dict:
+    def free(mu: float, seed: int, t: np.ndarray, play_deg: float = 0.0) -> dict:
         sc = FreeScenario()
-        crank = with_(sc.crank, friction_rad_s2=mu)
+        crank = with_(sc.crank, friction_rad_s2=mu, play_rad=np.radians(play_deg))
         theta = crank.swing(t, np.radians(sc.theta_init_deg))[0]
         d = sc.dynamics
         table = measured_table(theta, t, sigma, seed=seed, correlation=rho, L1_mm=d.L1,
                                L2_mm=d.L2)
         return close_loop(table, {}, "dynamic").to_dict()
 
-    def sma(lag: float, seed: int, t: np.ndarray, known: dict = sma_known) -> dict:
-        rig = with_(SMAScenario().rig, thermal_lag_s=lag)
+    def free_play(play_deg: float, seed: int, t: np.ndarray) -> dict:
+        return free(0.0, seed, t, play_deg)
+
+    def sma(lag: float, seed: int, t: np.ndarray, known: dict = sma_known,
+            coulomb_Nm: float = 0.0) -> dict:
+        rig = with_(SMAScenario().rig, thermal_lag_s=lag, coulomb_Nm=coulomb_Nm)
         theta = rig.response(t, current)[0]
         table = measured_table(theta, t, sigma, seed=seed, correlation=rho, L1_mm=rig.L1_mm,
                                L2_mm=rig.L2_mm)
         return close_loop(table, known, "sma").to_dict()
 
     cases = [("dynamic", "coulomb_rad_s2", free, (0.2, 0.4, 0.8), np.arange(180) / FPS),
-             ("sma", "thermal_lag_s", sma, (0.1, 0.2, 0.5), np.arange(150) / FPS)]
+             ("dynamic", "play_deg", free_play, (0.5, 1.0, 2.0, 4.0), np.arange(180) / FPS),
+             ("sma", "thermal_lag_s", sma, (0.1, 0.2, 0.5), np.arange(150) / FPS),
+             ("sma", "coulomb_Nm", lambda mu, seed, t: sma(0.0, seed, t, coulomb_Nm=mu),
+              (0.005, 0.01, 0.015, 0.03, 0.05), np.arange(150) / FPS)]
+    done = set()
     for model, effect, run, sizes, t in cases:
         t0 = time.perf_counter()
-        false = sum(bool(run(0.0, 2000 + k, t)["effects"]) for k in range(nulls))
-        print(f"\n{model} model, its bed built apart from the fitter (σ {sigma}°, lag-1 "
-              f"correlation {rho}): {false} false discoveries on {nulls} nulls")
+        if model not in done:  # the nulls once per model
+            done.add(model)
+            false = sum(bool(run(0.0, 2000 + k, t)["effects"]) for k in range(nulls))
+            print(f"\n{model} model, its bed built apart from the fitter (σ {sigma}°, lag-1 "
+                  f"correlation {rho}): {false} false discoveries on {nulls} nulls")
         for size in sizes:
             r = run(size, 1, t)
             p = r["parameters"].get(effect, {})

@@ -241,6 +241,18 @@ DYNAMIC_CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
               "from a larger angle separates it from extra viscous damping (dry friction "
               "costs the same angle per swing whatever the amplitude)",
               scan=("coulomb_rad_s2", 0.01, 30.0)),
+    Candidate("play_deg", "physical", (Parameter("play_deg", "deg", 0.0, 30.0),),
+              ((0.5,), (2.0,)), 0.0, (0.0, 20.0),
+              "play (a dead band) between the wire and the crank: within it the wire is "
+              "idle, so the swing slows as it shrinks into the band (the torsion spring "
+              "alone is softer) and the crank settles where the torsion spring balances "
+              "the wire at the band's edge",
+              also_looks_like="a softer wire spring (smaller k_s) or a bias spring whose "
+              "rest angle is elsewhere; those keep the period as the swing decays, play "
+              "does not: start the swing from two amplitudes and compare the periods",
+              separated_by="hold the crank and move the wire's end by hand: play is the "
+              "angle the crank turns before the wire tightens",
+              scan=("play_deg", 0.05, 20.0)),
 )}
 
 
@@ -278,6 +290,16 @@ SMA_CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
               "and settles at the same angles",
               also_looks_like="a thermal lag does; a damper's lag is an angle in proportion "
               "to the crank's speed, a thermal lag's a time: heat at two currents and compare"),
+    Candidate("coulomb_Nm", "physical", (Parameter("coulomb_Nm", "N·m", 0.0, 0.5),),
+              ((0.003,), (0.02,)), 0.0, (0.0, 0.5),
+              "dry friction at the pivot: the crank trails the balance by friction / "
+              "stiffness while it moves, so it stops short of both end angles, and after "
+              "each switch of the current it stays put until the wire's pull has changed "
+              "by twice the friction",
+              also_looks_like="a thermal lag (which delays the turn but does not cut the "
+              "angles short) or a smaller recovery strain (which cuts the heated angle "
+              "short but not the cooled one); a wire under a larger preload presses the "
+              "pin harder and grows dry friction, and nothing else here"),
     Candidate("time_offset_s", "recording", (Parameter("time_offset_s", "s", -5.0, 5.0),),
               ((0.05,), (-0.05,)), 0.0, (-5.0, 5.0),
               "every switch of the current takes effect later (or earlier) on the video's "

@@ -18,7 +18,8 @@ Three base models (:data:`MODELS`): ``spool`` (the rigid bed of thesis §2.5.2),
    plausible and its imprint on θ rises above the noise; the passing one
    with the largest ΔBIC is accepted (any that fit as well or better but
    fail are named beside it), then the rest are tried again on top of it,
-   until nothing more is accepted or the residual is white. A later effect
+   until nothing more is accepted or the residual is white and within
+   :data:`~.evidence.WHITE_BUT_LARGE` of the tracker's noise. A later effect
    must keep its value fitted alone (it is not there only to soak up what the
    first left); a lens or tilt must show the bend of the rigid crank it
    predicts (:func:`_link_veto`); a readout must be shorter than a frame.
@@ -55,6 +56,7 @@ from .evidence import (
     BIC_THRESHOLD,
     IMPRINT_SIGMAS,
     LOOK_ALIKE_BIC,
+    WHITE_BUT_LARGE,
     WHITE_P,
     ModelFit,
     NoiseModel,
@@ -242,7 +244,8 @@ def close_loop(measured: pd.DataFrame, known: dict[str, float] | None = None,
     rigid = link_evidence(measured, tracker_deg)
     noise = _judge_noise(fitter, base, tryable, tracker_deg, links, deg)
     veto = _link_veto(theta, links, view)
-    current, steps, scores, groups = _add_effects(fitter, base, tryable, noise, veto)
+    current, steps, scores, groups = _add_effects(fitter, base, tryable, noise, veto,
+                                                  np.radians(tracker_deg))
     before = diagnose(base, deg, t, ctx)
     after = diagnose(current, deg, t, ctx)
     # Structure well above the tracker's noise that the accepted effects leave:
@@ -453,10 +456,12 @@ def _stands_alone(c: Candidate, together: CandidateScore, single: CandidateScore
 
 
 def _add_effects(fitter: _Fitter, base: ModelFit, tryable: list[Candidate], noise: NoiseModel,
-                 veto: Callable[[str, dict[str, float]], str]
+                 veto: Callable[[str, dict[str, float]], str], floor_rad: float = 0.0
                  ) -> tuple[ModelFit, list[ModelFit], list[CandidateScore], list[dict]]:
     """Rounds of candidates on top of the current model until none passes or the residual
-    is white: (final fit, accepted steps, every score, groups that fit alike).
+    is white and no larger than :data:`WHITE_BUT_LARGE` × ``floor_rad`` (the tracker's
+    σ, rad; 0: whiteness alone): (final fit, accepted steps, every score, groups that
+    fit alike).
 
     ``veto(name, values)`` says why a fitted candidate cannot be ("" if it can). From
     round 2 on, an
@@ -468,8 +473,9 @@ def _add_effects(fitter: _Fitter, base: ModelFit, tryable: list[Candidate], nois
     current, steps, scores, groups = base, [], [], []
     alone: dict[str, CandidateScore] = {}
     for rnd in range(1, len(tryable) + 1):
-        if ljung_box_p(current.residual) >= WHITE_P:
-            break  # nothing structured left to explain
+        rms = float(np.sqrt(np.mean(current.residual**2)))
+        if ljung_box_p(current.residual) >= WHITE_P and rms <= WHITE_BUT_LARGE * floor_rad:
+            break  # nothing structured, nor more than the noise, left to explain
         tried = []
         for c in tryable:
             if c.name in current.effects:

@@ -94,12 +94,14 @@ def _spool_guess(t: NDArray, theta: NDArray, measured: pd.DataFrame,
 
 def dynamic_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[np.float64]:
     """θ (rad) of the free response (eq. 3.28, unit inertia, ε = 0.05) from t_s[0], with
-    stick–slip dry friction when ``values`` sets it (compiled RK4, 1 ms steps:
+    stick–slip dry friction and play between wire and crank when ``values`` sets them
+    (compiled RK4, 1 ms steps:
     :func:`cranktrack.models.dynamics.free_response`, ~1 ms a simulation)."""
     v = values
     dyn = CrankDynamics(I=1.0, k_l=v["k_l"], k_s=v["k_s"], k_d=v["k_d"], L1=v["L1_mm"],
                         L2=v["L2_mm"], theta0=np.radians(v["theta_rest_deg"]),
-                        coulomb=v.get("coulomb_rad_s2", 0.0))
+                        coulomb=v.get("coulomb_rad_s2", 0.0),
+                        play=np.radians(v.get("play_deg", 0.0)))
     return free_response(dyn, t_s, np.radians(v["theta_init_deg"]), v["omega_init_rad_s"])[0]
 
 
@@ -211,13 +213,22 @@ def _dynamic_guesses(t: NDArray, theta: NDArray, measured: pd.DataFrame,
         # for each number of swings before the crank sticks).
         loss = float(np.radians(peaks[0] - peaks[-1])) / (peaks.size - 1)
         base["coulomb_rad_s2"] = 0.5 * loss * wn**2
-    return [{**base, "k_d": 2.0 * zeta * wn} for zeta in zetas]
+    guesses = [{**base, "k_d": 2.0 * zeta * wn} for zeta in zetas]
+    # The same swing with the wire carrying half the stiffness: from k_s = 0 the wire
+    # does nothing, and an effect that acts through it (play) cannot be fitted there.
+    L1, L2 = held.get("L1_mm", 1.0), held.get("L2_mm", 1.0)
+    per_k_s = -float(CrankDynamics(I=1.0, k_l=0.0, k_s=1.0, L1=L1, L2=L2,
+                                   theta0=np.radians(rest)).daccel_dtheta(np.radians(rest)))
+    if per_k_s > 0:
+        guesses.insert(1, {**guesses[0], "k_l": 0.5 * wn**2, "k_s": 0.5 * wn**2 / per_k_s})
+    return guesses
 
 
 def sma_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[np.float64]:
     """θ (rad) of the SMA bed: the heat model on a 5 ms grid (LSODA, rtol 1e-7), ξ through the
     optional thermal lag, and the crank where the torques balance (damper to first
-    order): within 0.04° of the full equation of motion, a hundred times faster."""
+    order; held by the optional dry friction): within 0.04° of the full equation of
+    motion, a hundred times faster."""
     v = values
     dt = v.get("time_offset_s", 0.0)
     if not v["current_off_s"] > v["current_on_s"]:
@@ -234,7 +245,8 @@ def sma_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[np.
     fine = np.arange(min(0.0, t[0]), t[-1] + 0.01, 0.005)
     heat = simulate_wire(bed.wire, current, fine, rtol=1e-7, fast=True)
     xi = lagged(heat.xi, fine, bed.thermal_lag_s)
-    return np.interp(t, fine, quasi_static_theta(bed, xi, fine))
+    return np.interp(t, fine, quasi_static_theta(bed, xi, fine,
+                                                 coulomb_Nm=v.get("coulomb_Nm", 0.0)))
 
 
 def _sma_hold(measured: pd.DataFrame, known: dict[str, float]
@@ -266,7 +278,7 @@ MODELS: dict[str, ModelSpec] = {
     "spool": ModelSpec("spool", SPOOL_BASE, spool_theta, CANDIDATES, _spool_guesses,
                        _spool_hold),
     "dynamic": ModelSpec("dynamic", DYNAMIC_BASE, dynamic_theta, DYNAMIC_CANDIDATES,
-                         _dynamic_guesses, _dynamic_hold, diff_step=1e-4, effect_guesses=3),
+                         _dynamic_guesses, _dynamic_hold, diff_step=1e-4, effect_guesses=4),
     "sma": ModelSpec("sma", SMA_BASE, sma_theta, SMA_CANDIDATES, _sma_guesses, _sma_hold,
                      diff_step=1e-3),
 }

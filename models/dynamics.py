@@ -38,9 +38,13 @@ FREE_STEP_S = 1e-3
 
 @njit(cache=True)
 def _accel(th: float, om: float, sense: float, k_l: float, k_s: float, k_d: float,
-           L1: float, L2: float, th0: float, L3_0: float, mu: float) -> float:
-    L3 = math.sqrt(L1 * L1 + L2 * L2 - 2.0 * L1 * L2 * math.cos(th))
-    wire = k_s * L1 * L2 * math.sin(th) * (1.0 - L3_0 / L3)
+           L1: float, L2: float, th0: float, L3_0: float, half: float, neutral: float,
+           mu: float) -> float:
+    # With play the wire pulls a lever that turns ±half about the crank: it floats at
+    # the wire's neutral angle while that lies within the band, else rests on a stop.
+    tw = th - min(max(th - neutral, -half), half) if half > 0.0 else th
+    L3 = math.sqrt(L1 * L1 + L2 * L2 - 2.0 * L1 * L2 * math.cos(tw))
+    wire = k_s * L1 * L2 * math.sin(tw) * (1.0 - L3_0 / L3)
     return k_l * (th0 - th) - k_d * om - wire - mu * sense
 
 
@@ -107,7 +111,7 @@ def free_response(dyn: CrankDynamics, t_s: ArrayLike, theta_init: float,
     to infinity (parameters a fit should not choose)."""
     t = np.ascontiguousarray(t_s, dtype=float)
     p = (dyn.k_l / dyn.I, dyn.k_s / dyn.I, dyn.k_d, dyn.L1, dyn.L2, dyn.theta0, dyn.L3_0,
-         dyn.coulomb)
+         0.5 * dyn.play, dyn.neutral, dyn.coulomb)
     theta, omega = _free_response(t, float(theta_init), float(omega_init), p, FREE_STEP_S)
     if not np.all(np.isfinite(theta)):
         raise FloatingPointError("the free response diverged")
@@ -133,11 +137,22 @@ class CrankDynamics:
     #: stopped crank creep on: against a true stick-slip render
     #: (``synthetic/free_swing.py``) it left 4× the noise unexplained.
     coulomb: float = 0.0
+    #: Play between the wire and the crank, rad (the whole dead band; 0: none): the
+    #: wire pulls a lever that turns that much freely about the crank, so the wire is
+    #: idle while the crank is within half of it of :attr:`neutral`. Not in the thesis.
+    #: Only :meth:`accel` and :func:`free_response` include it.
+    play: float = 0.0
 
     @property
     def L3_0(self) -> float:
         """Free length of the wire spring: (1 − ε)·L3(θ0)."""
         return float((1.0 - self.eps) * l3_from_theta(self.theta0, self.L1, self.L2))
+
+    @property
+    def neutral(self) -> float:
+        """The crank angle at which the wire is at its free length, rad (law of cosines)."""
+        c = (self.L1**2 + self.L2**2 - self.L3_0**2) / (2.0 * self.L1 * self.L2)
+        return float(np.arccos(np.clip(c, -1.0, 1.0)))
 
     @property
     def stiffness_ratio(self) -> float:
@@ -147,9 +162,11 @@ class CrankDynamics:
     def accel(self, theta: ArrayLike, omega: ArrayLike = 0.0) -> NDArray[np.float64]:
         """θ'' of eq. 3.28 at (θ, θ')."""
         th = np.asarray(theta, float)
-        L3 = l3_from_theta(th, self.L1, self.L2)
+        half = 0.5 * self.play
+        tw = th - np.clip(th - self.neutral, -half, half) if half > 0 else th
+        L3 = l3_from_theta(tw, self.L1, self.L2)
         with np.errstate(divide="ignore", invalid="ignore"):
-            wire = self.k_s / self.I * self.L1 * self.L2 * np.sin(th) * (1.0 - self.L3_0 / L3)
+            wire = self.k_s / self.I * self.L1 * self.L2 * np.sin(tw) * (1.0 - self.L3_0 / L3)
         om = np.asarray(omega, float)
         friction = self.coulomb * np.sign(om) if self.coulomb else 0.0  # while sliding
         return self.k_l / self.I * (self.theta0 - th) - self.k_d * om - wire - friction
@@ -193,9 +210,10 @@ class CrankDynamics:
     def simulate(self, t_s: ArrayLike, theta_init: float, omega_init: float = 0.0,
                  rtol: float = 1e-10, atol: float = 1e-12) -> tuple[NDArray, NDArray]:
         """θ(t), θ'(t) from Dormand–Prince (RK45) at tight tolerances; with dry
-        friction, from :func:`free_response` (its stick is an event RK45 cannot see)."""
+        friction or play, from :func:`free_response` (its stick is an event RK45 cannot
+        see, and the play's stops are kinks)."""
         t = np.asarray(t_s, float)
-        if self.coulomb:
+        if self.coulomb or self.play:
             return free_response(self, t, theta_init, omega_init)
         sol = solve_ivp(lambda _, y: [y[1], float(self.accel(y[0], y[1]))], (t[0], t[-1]),
                         [theta_init, omega_init], method="RK45", t_eval=t, rtol=rtol, atol=atol)

@@ -165,17 +165,18 @@ def _torque(theta: float, xi: float, bed: tuple[float, ...]) -> float:
 
 
 @njit(cache=True, nogil=True)
-def _balance(xi: NDArray, lo: float, hi: float, bed: tuple[float, ...]
+def _balance(xi: NDArray, lo: float, hi: float, bed: tuple[float, ...], target: float = 0.0
              ) -> tuple[NDArray, NDArray]:
-    """θ (rad) where :func:`_torque` is zero for each ξ, by 45 halvings between a slack
-    wire (``lo``: the spring wins) and ``hi`` (the wire wins), and the torque's
-    stiffness there, −dτ/dθ (N·m/rad, central difference over 2 µrad)."""
+    """θ (rad) where :func:`_torque` equals ``target`` (N·m; 0: the balance) for each ξ,
+    by 45 halvings between a slack wire (``lo``: the spring wins) and ``hi`` (the wire
+    wins), and the torque's stiffness there, −dτ/dθ (N·m/rad, central difference over
+    2 µrad)."""
     theta, stiffness = np.empty(xi.size), np.empty(xi.size)
     for i in range(xi.size):
         a, b = lo, hi
         for _ in range(45):  # 2.5 rad / 2⁴⁵: within 1e-13 rad
             mid = 0.5 * (a + b)
-            if _torque(mid, xi[i], bed) > 0:  # the spring still wins: the balance is at a larger θ
+            if _torque(mid, xi[i], bed) > target:  # the balance is at a larger θ
                 a = mid
             else:
                 b = mid
@@ -185,8 +186,22 @@ def _balance(xi: NDArray, lo: float, hi: float, bed: tuple[float, ...]
     return theta, stiffness
 
 
+@njit(cache=True, nogil=True)
+def _stick(lower: NDArray, upper: NDArray, start: float) -> NDArray:
+    """θ of a crank held by dry friction: it stays where it is while that lies between
+    ``lower`` and ``upper`` (the angles where the torque reaches ±the friction) and is
+    dragged along by whichever it would otherwise cross."""
+    out = np.empty(lower.size)
+    theta = start
+    for i in range(lower.size):
+        theta = min(max(theta, lower[i]), upper[i])
+        out[i] = theta
+    return out
+
+
 def quasi_static_theta(bed: SMABed, xi: NDArray[np.float64],
-                       t_s: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+                       t_s: NDArray[np.float64] | None = None,
+                       coulomb_Nm: float = 0.0) -> NDArray[np.float64]:
     """θ (rad) where the torques balance, for each martensite fraction.
 
     The crank's inertia is left out (its own frequency against the stiff wire is
@@ -195,6 +210,13 @@ def quasi_static_theta(bed: SMABed, xi: NDArray[np.float64],
     With the times ``t_s`` the damper's share is added to first order:
     δθ = −c·θ' / k, k the torque's stiffness in θ (a lag of c/k, a few ms, which is a
     tenth of a degree at full speed).
+
+    ``coulomb_Nm`` is dry friction at the pivot (N·m; an effect the lumped model
+    lacks): the crank sticks while the springs' and the wire's torque is within ±it,
+    and while it slides it sits where that torque is exactly the friction, so it
+    trails the balance by about friction / stiffness and, when the current turns,
+    waits until the torque has changed by twice the friction. The crank starts at
+    the balance of the first ξ (nothing has moved it yet).
     """
     xi = np.asarray(xi, float)
     # The balance depends on ξ alone, so it is solved on a grid of ξ and read off
@@ -202,9 +224,14 @@ def quasi_static_theta(bed: SMABed, xi: NDArray[np.float64],
     # (257 nodes put the linear interpolation within 1e-4° of the solve).
     # Where ξ is constant the nodes coincide, and the interpolation gives their one balance.
     nodes = np.linspace(float(np.min(xi)), float(np.max(xi)), 257)
-    on_nodes, stiff_nodes = _balance(nodes, 0.05, np.radians(bed.theta0_deg) + 0.3,
-                                     _constants(bed))
+    bracket = (0.05, np.radians(bed.theta0_deg) + 0.3, _constants(bed))
+    on_nodes, stiff_nodes = _balance(nodes, *bracket)
     theta = np.interp(xi, nodes, on_nodes)
+    if coulomb_Nm > 0:
+        # The torque falls as θ grows, so +friction is reached below the balance.
+        lower = np.interp(xi, nodes, _balance(nodes, *bracket, coulomb_Nm)[0])
+        upper = np.interp(xi, nodes, _balance(nodes, *bracket, -coulomb_Nm)[0])
+        theta = _stick(lower, upper, float(theta[0]))
     if t_s is None or bed.damping_Nms_rad == 0:
         return theta
     stiffness = np.interp(xi, nodes, stiff_nodes)

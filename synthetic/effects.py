@@ -65,8 +65,10 @@ EFFECTS: dict[str, EffectInfo] = {
         "spool turn (the fitter's drive_ripple_mm: offset = this × the spool radius)"),
     "dead_band_deg": EffectInfo(
         "physical", "deg",
-        "play between the wire and the crank: the wire closes this angle before the crank "
-        "moves, and the crank then stays that far behind (the fitter's play_deg)"),
+        "play between the wire and the crank (the fitter's play_deg): on the spool the "
+        "wire closes this angle before the crank moves, and the crank then stays that far "
+        "behind; in the free scenario the wire idles through it, so the swing slows as it "
+        "shrinks into the band"),
     "servo_stall_s": EffectInfo(
         "physical", "s",
         "the servo stops for this long halfway through its stroke, then winds the rest: "
@@ -105,6 +107,11 @@ EFFECTS: dict[str, EffectInfo] = {
                                   "drag at the pivot, on top of the bed's own: the crank "
                                   "follows each heating and cooling later and more smoothly "
                                   "but settles at the same angles"),
+    "coulomb_Nm": EffectInfo("physical", "N·m", "(sma scenario) dry friction at the pivot, "
+                             "as stick and slip: the crank stays put after each switch of "
+                             "the current until the wire's pull has changed by twice the "
+                             "friction, then trails its balance and stops short of both end "
+                             "angles"),
     "coulomb_rad_s2": EffectInfo("physical", "rad/s²", "dry friction at the pivot: in "
                                  "the free scenario the swing shrinks by the same angle every "
                                  "half cycle instead of by the same fraction and the crank "
@@ -116,7 +123,7 @@ EFFECTS: dict[str, EffectInfo] = {
 #: Physical effects of the free-response scenario.
 FREE_ONLY = ("coulomb_rad_s2",)
 #: Physical effects of the SMA bed.
-SMA_ONLY = ("thermal_lag_s", "damping_Nms_rad")
+SMA_ONLY = ("thermal_lag_s", "damping_Nms_rad", "coulomb_Nm")
 
 #: Effects that work on any scenario (the rest of the physical ones are the spool's).
 ANY_SCENARIO = ("pivot_amp_mm", "pivot_hz")

@@ -11,6 +11,11 @@ integrator never meets the switch. This module imports nothing from
 - the wire is a spring of free length (1 − ε)·|BC| at the bias spring's rest
   angle (the thesis's pre-stretch), the torsion spring at A pulls towards
   that angle, and viscous damping acts at the pivot;
+- play between the wire and the crank (``play_rad``): the wire is hooked to a
+  light lever that turns freely through the play about the crank, between two
+  stops. With no mass of its own the lever settles where the wire is at its
+  free length, unless a stop holds it away from there; then the wire pulls
+  through that stop;
 - dry friction is a true stick–slip: while the crank turns it decelerates by
   μ against the motion; each time it stops, it stays stopped for good if the
   springs' torque is less than μ·I (nothing else drives it), and otherwise
@@ -27,6 +32,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -53,6 +59,7 @@ class SwingingCrank:
     prestretch: float
     damping_per_s: float = 0.0
     friction_rad_s2: float = 0.0
+    play_rad: float = 0.0
 
     def _tip(self, theta: float) -> tuple[float, float]:
         return self.L2_mm * math.cos(theta), self.L2_mm * math.sin(theta)
@@ -63,9 +70,33 @@ class SwingingCrank:
         bx, by = self._tip(self.rest_rad)
         return (1.0 - self.prestretch) * math.hypot(self.L1_mm - bx, -by)
 
+    @cached_property
+    def _wire_slack_angle(self) -> float:
+        """Where the lever sits with the wire at its free length, rad: |BC| grows from
+        L1 − L2 to L1 + L2 as the angle goes from 0 to π, so bisection finds it."""
+        lo, hi = 0.0, math.pi
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            bx, by = self._tip(mid)
+            if math.hypot(self.L1_mm - bx, -by) < self.wire_free_mm:
+                lo = mid
+            else:
+                hi = mid
+        return 0.5 * (lo + hi)
+
+    def _lever(self, theta: float) -> float:
+        """The angle of the lever the wire pulls, rad: free within the play, or on a stop."""
+        if self.play_rad <= 0:
+            return theta
+        free = self._wire_slack_angle
+        half = 0.5 * self.play_rad
+        if theta - half <= free <= theta + half:
+            return free
+        return theta + half if free > theta else theta - half
+
     def spring_accel(self, theta: float) -> float:
         """θ'' from the two springs alone (rad/s²), torques taken as cross products."""
-        bx, by = self._tip(theta)
+        bx, by = self._tip(self._lever(theta))
         dx, dy = self.L1_mm - bx, -by  # B → C
         length = math.hypot(dx, dy)
         tension = self.wire_k * (length - self.wire_free_mm)

@@ -136,7 +136,8 @@ class FreeScenario:
         """The same bed built from its parts (:mod:`.free_swing`): the render's physics,
         written apart from the fitter's eq. 3.28, with a true stick–slip for dry friction."""
         d = self.dynamics
-        return SwingingCrank(d.L1, d.L2, d.I, d.k_l, d.k_s, d.theta0, d.eps, d.k_d, d.coulomb)
+        return SwingingCrank(d.L1, d.L2, d.I, d.k_l, d.k_s, d.theta0, d.eps, d.k_d, d.coulomb,
+                             d.play)
 
     def motion(self, t_s: ArrayLike) -> Motion:
         """Motion at times ``t_s`` (s, from 0), to the integrator's 1e-11."""
@@ -169,6 +170,8 @@ class SMAScenario:
     on_s: float = 0.5
     off_s: float = 3.0
     name: str = "sma"
+    #: Dry friction at the pivot, N·m: an effect the fitter's lumped model lacks.
+    coulomb_Nm: float = 0.0
 
     def motion(self, t_s: ArrayLike) -> Motion:
         """Motion at times ``t_s`` (s, from 0), from one dense solution per clip (the
@@ -187,7 +190,7 @@ class SMAScenario:
         return SMARig(b.L1, b.L2, np.radians(b.theta0_deg), b.recovery_strain,
                       b.E_austenite_Pa, b.E_martensite_Pa, b.bias_k_Nm_rad, b.preload_N,
                       b.inertia_kg_m2, b.damping_Nms_rad, SMAWireParts(**asdict(b.thermal)),
-                      b.thermal_lag_s)
+                      b.thermal_lag_s, self.coulomb_Nm)
 
     def extent_mm(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The crank's whole circle and the frame."""

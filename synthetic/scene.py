@@ -198,6 +198,12 @@ def render_scene(
         bed = scenario.bed
         scenario = replace(scenario, bed=replace(
             bed, damping_Nms_rad=bed.damping_Nms_rad + effects["damping_Nms_rad"]))
+    if "coulomb_Nm" in effects:
+        scenario = replace(scenario, coulomb_Nm=effects["coulomb_Nm"])
+    if "dead_band_deg" in effects and isinstance(scenario, FreeScenario):
+        physical.pop("dead_band_deg")
+        scenario = replace(scenario, dynamics=replace(
+            scenario.dynamics, play=float(np.radians(effects["dead_band_deg"]))))
     if "coulomb_rad_s2" in effects and isinstance(scenario, SpoolScenario):
         physical["coulomb_rad_s2"] = effects["coulomb_rad_s2"]
     elif "coulomb_rad_s2" in effects:

@@ -21,6 +21,11 @@ imports nothing from ``models/`` and builds the same rig another way:
   natural length is L_A·(1 + ε_L·ξ) and its modulus the two phases in series.
   The trapezoidal rule integrates it, implicitly (the stiff wire rings at a
   few hundred hertz).
+- **Dry friction at the pivot** (``coulomb_Nm``), as stick and slip: a crank at
+  rest stays at rest while the other torques are within ±the friction; a moving
+  one is braked by the friction against its motion, and where its speed passes
+  through zero within a step it stops there (found by the speed's linear
+  interpolation over the step) and is judged again from rest.
 
 Where the physics is the same it agrees with the fitter's model to well below
 a tracker's noise (``tests/test_open_world.py``). Units: SI inside; lengths in
@@ -87,6 +92,7 @@ class SMARig:
     damping_Nms_rad: float
     wire: SMAWireParts
     thermal_lag_s: float = 0.0
+    coulomb_Nm: float = 0.0
 
     # --- geometry -------------------------------------------------------------
     def _tip(self, theta: float) -> tuple[float, float]:
@@ -215,23 +221,38 @@ class SMARig:
         t = np.asarray(t_s, float)
         grid, _, xi = self.wire_history(current, float(t.max()) + 1e-3)
         theta_b, k_b = self.bias_rest_rad, self.bias_k_Nm_rad
-        c, inertia = self.damping_Nms_rad, self.inertia_kg_m2
+        c, inertia, mu = self.damping_Nms_rad, self.inertia_kg_m2, self.coulomb_Nm
 
-        def accel(theta: float, omega: float, x: float) -> float:
-            return (k_b * (theta_b - theta) - c * omega
-                    + self._wire_pull_torque(theta, x)) / inertia
+        def drive(theta: float, x: float) -> float:
+            """The springs' and the wire's torque, N·m: what friction has to hold."""
+            return k_b * (theta_b - theta) + self._wire_pull_torque(theta, x)
+
+        def accel(theta: float, omega: float, x: float, sense: float) -> float:
+            return (drive(theta, x) - c * omega - mu * sense) / inertia
 
         n = grid.size
         theta, omega, alpha = np.empty(n), np.empty(n), np.empty(n)
         th, om = self.theta0_rad, 0.0
-        a = accel(th, om, xi[0])
+        # Which way friction brakes: the motion's sense, 0 while the crank is at rest.
+        sense = 0.0
+        a = accel(th, om, xi[0], sense)
         theta[0], omega[0], alpha[0] = th, om, a
         for k in range(1, n):
             dt = grid[k] - grid[k - 1]
+            if mu > 0 and sense == 0.0:
+                pull = drive(th, xi[k])
+                if abs(pull) <= mu:  # held: nothing moves this step
+                    theta[k], omega[k], alpha[k] = th, 0.0, 0.0
+                    a = 0.0
+                    continue
+                sense = math.copysign(1.0, pull)
+                a = accel(th, 0.0, xi[k - 1], sense)  # it breaks loose from rest
+            elif mu > 0:
+                sense = math.copysign(1.0, om) if om != 0.0 else sense
 
-            def residual(th1: float, th=th, om=om, a=a, dt=dt, x=xi[k]) -> float:
+            def residual(th1: float, th=th, om=om, a=a, dt=dt, x=xi[k], s=sense) -> float:
                 om1 = 2.0 * (th1 - th) / dt - om
-                return om1 - om - 0.5 * dt * (a + accel(th1, om1, x))
+                return om1 - om - 0.5 * dt * (a + accel(th1, om1, x, s))
 
             th1 = th + dt * om
             for _ in range(20):
@@ -241,9 +262,16 @@ class SMARig:
                 th1 -= step
                 if abs(step) < 1e-14:
                     break
-            om = 2.0 * (th1 - th) / dt - om
-            th = th1
-            a = accel(th, om, xi[k])
+            om1 = 2.0 * (th1 - th) / dt - om
+            if mu > 0 and om1 * sense < 0.0:
+                # The speed passed through zero in this step: stop where it did (the
+                # speed taken as linear over the step) and judge the crank from rest.
+                part = om / (om - om1) if om != om1 else 0.0
+                th, om, sense = th + 0.5 * part * dt * om, 0.0, 0.0
+                a = 0.0
+            else:
+                th, om = th1, om1
+                a = accel(th, om, xi[k], sense)
             theta[k], omega[k], alpha[k] = th, om, a
         th_of = CubicHermiteSpline(grid, theta, omega)
         om_of = CubicHermiteSpline(grid, omega, alpha)

@@ -192,12 +192,12 @@ def test_a_shake_at_an_angle_is_reported_as_the_whole_vector():
 # synthetic/free_swing.py: vector torques and a true stick–slip, not eq. 3.28's
 # closed form with a tanh.
 
-def _free_table(friction: float, seed: int) -> pd.DataFrame:
+def _free_table(friction: float, seed: int, play_deg: float = 0.0) -> pd.DataFrame:
     from cranktrack.synthetic.scenarios import FreeScenario
 
     d = FreeScenario().dynamics
     crank = FreeScenario().crank.__class__(d.L1, d.L2, d.I, d.k_l, d.k_s, d.theta0, d.eps,
-                                           d.k_d, friction)
+                                           d.k_d, friction, np.radians(play_deg))
     t = np.arange(180) / 30.0
     theta = crank.swing(t, np.radians(70.0))[0]
     return measured_table(theta, t, SIGMA, seed=seed, L1_mm=d.L1, L2_mm=d.L2)
@@ -229,6 +229,38 @@ def test_the_dynamic_model_finds_stick_slip_friction_it_did_not_render(friction)
         assert result["rmse_after_deg"] < 1.5 * SIGMA
     else:
         assert result["effects"] == []
+
+
+def test_the_free_swings_lever_and_the_fitters_dead_band_agree():
+    # The rig finds where the wire goes slack by bisection on |BC| and moves a lever
+    # between stops; the fitter clips the angle the wire sees about the law of cosines'.
+    from dataclasses import replace
+
+    from cranktrack.models.dynamics import free_response
+    from cranktrack.synthetic.scenarios import FreeScenario
+
+    sc = FreeScenario()
+    d = sc.dynamics
+    t = np.arange(180) / 30.0
+    play = np.radians(2.0)
+    theirs = replace(sc.crank, play_rad=play).swing(t, np.radians(70.0))[0]
+    ours = free_response(replace(d, I=1.0, k_l=d.k_l / d.I, k_s=d.k_s / d.I, play=play), t,
+                         np.radians(70.0))[0]
+    assert np.degrees(np.max(np.abs(ours - theirs))) < 1e-3
+    # and the play is felt: the crank settles degrees away from where it would without
+    assert abs(np.degrees(theirs[-1] - sc.crank.swing(t, np.radians(70.0))[0][-1])) > 1.0
+
+
+@pytest.mark.parametrize("play_deg", [0.5, 4.0])
+def test_the_dynamic_model_finds_play_it_did_not_render(play_deg):
+    # At 4° the base fit drops the wire (k_s → 0), where play does nothing: the effect's
+    # fit needs the data's start that shares the stiffness with the wire.
+    result = close_loop(_free_table(0.0, seed=2, play_deg=play_deg), {},
+                        model="dynamic").to_dict()
+    assert result["effects"] == ["play_deg"]
+    fitted = result["parameters"]["play_deg"]["value"]
+    assert abs(fitted - play_deg) < 0.05 * play_deg
+    assert result["rmse_after_deg"] < 1.5 * SIGMA
 
 
 # The SMA bed (the sma model) against the rig built from its parts in
@@ -269,6 +301,48 @@ def test_the_sma_model_finds_a_thermal_lag_it_did_not_render(lag_s):
         assert abs(fitted - lag_s) < 0.15 * lag_s
     else:
         assert result["effects"] == []
+
+
+def _sma_rubbing(coulomb_Nm: float, t: np.ndarray) -> np.ndarray:
+    from dataclasses import replace
+
+    from cranktrack.synthetic.scenarios import SMAScenario
+    from cranktrack.synthetic.sma_rig import current_step
+
+    rig = replace(SMAScenario().rig, coulomb_Nm=coulomb_Nm)
+    return rig.response(t, current_step(1.3, 0.5, 3.0))[0]
+
+
+def test_the_sma_rigs_stick_slip_and_the_fitters_friction_band_agree():
+    # Two forms of one friction: the rig integrates stick and slip with inertia, the
+    # fitter clamps the balance between the angles where the torque is ±friction.
+    from cranktrack.loop.simulate import sma_theta
+    from cranktrack.models.heat import SMAWire
+
+    w = SMAWire()
+    t = np.arange(150) / 30.0
+    base = {**SMA_KNOWN, "ambient_C": w.T_amb_C, "L1_mm": 305.0, "L2_mm": 24.1,
+            "theta0_deg": 125.0, "recovery_strain": 0.0325, "h_W_m2K": w.h_W_m2K,
+            "As_C": w.As_C, "Af_C": w.Af_C, "Ms_C": w.Ms_C, "Mf_C": w.Mf_C}
+    free, rubbing = _sma_rubbing(0.0, t), _sma_rubbing(0.02, t)
+    # The friction is felt: the crank comes back 0.7° short by the end.
+    assert np.degrees(free[-1] - rubbing[-1]) > 0.5
+    ours = sma_theta({**base, "coulomb_Nm": 0.02}, t)
+    assert np.degrees(np.max(np.abs(ours - rubbing))) < 0.02
+
+
+@pytest.mark.parametrize("coulomb_Nm", [0.015, 0.03])
+def test_the_sma_model_finds_dry_friction_it_did_not_render(coulomb_Nm):
+    # The base model takes up most of it (0.015 N·m leaves a white residual 1.34× the
+    # tracker's σ): the loop must look past a white residual that is still too large.
+    t = np.arange(150) / 30.0
+    table = measured_table(_sma_rubbing(coulomb_Nm, t), t, SIGMA, seed=3, L1_mm=305.0,
+                           L2_mm=24.1)
+    result = close_loop(table, SMA_KNOWN, model="sma").to_dict()
+    assert result["effects"] == ["coulomb_Nm"]
+    fitted = result["parameters"]["coulomb_Nm"]["value"]
+    assert abs(fitted - coulomb_Nm) < 0.15 * coulomb_Nm
+    assert result["rmse_after_deg"] < 1.1 * SIGMA
 
 
 def test_the_loop_reports_each_fit_it_starts():
