@@ -142,7 +142,8 @@ def _synth_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--effect", action="append", metavar="NAME=VALUE",
                    help="switch on an effect the models lack (repeatable): slack_mm, "
                         "spool_growth_per_s, return_spring_hz, return_spring_zeta, "
-                        "wire_stretch_mm, drive_delay_s, spool_eccentricity, dead_band_deg, "
+                        "wire_stretch_mm, drive_delay_s, spool_eccentricity, spool_radius_mm, "
+                        "dead_band_deg, "
                         "servo_stall_s, dropped_frames, fps_label, k1, k2, tilt_deg, "
                         "exposure_s, readout_s, pivot_amp_mm, pivot_hz, coulomb_rad_s2 (free, "
                         "or spool with return_spring_hz), thermal_lag_s, damping_Nms_rad "

@@ -62,6 +62,6 @@ def compile_kernels() -> list[str]:
                "h_W_m2K": wire.h_W_m2K, "ambient_C": wire.T_amb_C, "As_C": wire.As_C,
                "Af_C": wire.Af_C, "Ms_C": wire.Ms_C, "Mf_C": wire.Mf_C, "L1_mm": bed.L1,
                "L2_mm": bed.L2, "theta0_deg": bed.theta0_deg,
-               "recovery_strain": bed.recovery_strain}, t)
-    done.append("SMA fit model")
+               "recovery_strain": bed.recovery_strain, "coulomb_Nm": 0.01}, t)
+    done.append("SMA fit model (with dry friction)")
     return done

@@ -269,6 +269,53 @@ def _open_world_cases() -> dict:
     }
 
 
+def _open_world_row(label: str, fields: dict, expect: str, truth, r: dict) -> dict:
+    """One series' line of the open-world table: what was in it, what the loop named,
+    and the value it fitted against the truth."""
+    rec = {"truth": label, "size": ", ".join(f"{k}={v:g}" for k, v in fields.items()),
+           "named": r["effects"], "unexplained": bool(r["unexplained"]), "expect": expect}
+    p = r["parameters"].get(expect)
+    if truth and p and "sigma" in p:
+        true = truth(fields)
+        rec["value"], rec["true"] = p["value"], true
+        rec["rel_err"] = (p["value"] - true) / (true - (1.0 if expect == "clock_scale" else 0.0))
+    if expect == "unexplained" and r["leftover"]:
+        rec["signature"] = r["leftover"]["sentence"][:90]
+        d = r["leftover"].get("discovery")
+        rec["proposed"] = (f"{d['equation']}  (θ RMSE {d['rmse_before_deg']:.3g}° → "
+                           f"{d['rmse_after_deg']:.3g}°)" if d else "nothing proposed")
+    return rec
+
+
+def print_open_world(rows: list[dict]) -> None:
+    """The confusion matrix, the counts the issue's targets name, the recovered values and
+    what the sparse regression proposes outside the library."""
+    table = pd.DataFrame(rows)
+    table["first"] = table["named"].map(lambda x: x[0] if x else "none")
+    table.loc[table["unexplained"] & (table["first"] == "none"), "first"] = "unexplained"
+    print("Confusion matrix (rows: effect in the mechanism; columns: named first):")
+    print(pd.crosstab(table["truth"], table["first"]).to_string())
+    null = table[table["truth"] == "none"]
+    eff = table[table["truth"] != "none"]
+    inside = eff[eff["expect"] != "unexplained"]
+    outside = eff[eff["expect"] == "unexplained"]
+    right = (inside["first"] == inside["expect"]).sum()
+    alone = inside["named"].map(len).le(1) & (inside["first"] == inside["expect"])
+    print(f"\nright family named first: {right} of {len(inside)} "
+          f"({100 * right / len(inside):.0f} %)")
+    print(f"no extra effect beside the right one: {int(alone.sum())} of {int(right)}")
+    print(f"false discoveries on {len(null)} nulls: {int(null['named'].map(bool).sum())}")
+    ok = outside["named"].map(len).eq(0) & outside["unexplained"]
+    print(f"outside the library, 'unexplained' with no name: {int(ok.sum())} of {len(outside)}"
+          f"; a wrong name: {int(outside['named'].map(bool).sum())}")
+    cols = [c for c in ("truth", "size", "named", "value", "true", "rel_err", "signature")
+            if c in eff]
+    print(eff[cols].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    print("\nOutside the library, the missing term the sparse regression proposes:")
+    for _, row in outside.iterrows():
+        print(f"  {row['truth']}, {row['size']}: {row.get('proposed', 'nothing proposed')}")
+
+
 def open_world(nulls: int) -> None:
     """The loop on θ(t) from :mod:`cranktrack.synthetic.mechanism` (no render, no tracker:
     AR(1) noise of σ 0.02°, lag-1 correlation 0.5, as tracked renders show), every
@@ -295,49 +342,68 @@ def open_world(nulls: int) -> None:
                      "unexplained": bool(r["unexplained"])})
     for label, (sizes, expect, truth) in _open_world_cases().items():
         for i, fields in enumerate(sizes):
-            r = run(fields, i)
-            rec = {"truth": label, "size": ", ".join(f"{k}={v:g}" for k, v in fields.items()),
-                   "named": r["effects"], "unexplained": bool(r["unexplained"]),
-                   "expect": expect}
-            p = r["parameters"].get(expect)
-            if truth and p and "sigma" in p:
-                true = truth(fields)
-                rec["value"], rec["true"] = p["value"], true
-                rec["rel_err"] = (p["value"] - true) / (true - (1.0 if expect == "clock_scale"
-                                                                else 0.0))
-            if expect == "unexplained" and r["leftover"]:
-                rec["signature"] = r["leftover"]["sentence"][:90]
-                d = r["leftover"].get("discovery")
-                rec["proposed"] = (f"{d['equation']}  (θ RMSE {d['rmse_before_deg']:.3g}° → "
-                                   f"{d['rmse_after_deg']:.3g}°)" if d else "nothing proposed")
-            rows.append(rec)
-    table = pd.DataFrame(rows)
-    table["first"] = table["named"].map(lambda x: x[0] if x else "none")
-    table.loc[table["unexplained"] & (table["first"] == "none"), "first"] = "unexplained"
+            rows.append(_open_world_row(label, fields, expect, truth, run(fields, i)))
     print(f"\nOpen world: the mechanism's physics, in memory, σ {sigma}° with lag-1 "
           f"correlation {rho} ({time.perf_counter() - t0:.0f} s)")
-    print("Confusion matrix (rows: effect in the mechanism; columns: named first):")
-    print(pd.crosstab(table["truth"], table["first"]).to_string())
-    null = table[table["truth"] == "none"]
-    eff = table[table["truth"] != "none"]
-    inside = eff[eff["expect"] != "unexplained"]
-    outside = eff[eff["expect"] == "unexplained"]
-    right = (inside["first"] == inside["expect"]).sum()
-    alone = inside["named"].map(len).le(1) & (inside["first"] == inside["expect"])
-    print(f"\nright family named first: {right} of {len(inside)} "
-          f"({100 * right / len(inside):.0f} %)")
-    print(f"no extra effect beside the right one: {int(alone.sum())} of {int(right)}")
-    print(f"false discoveries on {len(null)} nulls: {int(null['named'].map(bool).sum())}")
-    ok = outside["named"].map(len).eq(0) & outside["unexplained"]
-    print(f"outside the library, 'unexplained' with no name: {int(ok.sum())} of {len(outside)}"
-          f"; a wrong name: {int(outside['named'].map(bool).sum())}")
-    cols = [c for c in ("truth", "size", "named", "value", "true", "rel_err", "signature")
-            if c in eff]
-    print(eff[cols].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-    print("\nOutside the library, the missing term the sparse regression proposes:")
-    for _, row in outside.iterrows():
-        print(f"  {row['truth']}, {row['size']}: {row.get('proposed', 'nothing proposed')}")
+    print_open_world(rows)
     loop_speed()
+
+
+#: The open world on tracked renders: `synth --effect` names (the spool's physics from
+#: synthetic/mechanism.py, the camera's from synthetic/camera.py), what the loop should
+#: name, and the true value in its parameter.
+RENDERED_CASES = {
+    "slack, lost stroke": ([{"slack_mm": v} for v in (0.3, 1.0, 2.0)], "slack_mm",
+                           lambda e: e["slack_mm"]),
+    "slack, pure delay": ([{"drive_delay_s": v} for v in (0.02, 0.05, 0.1)], "time_offset_s",
+                          lambda e: e["drive_delay_s"]),
+    "spool growth": ([{"spool_growth_per_s": v} for v in (0.03, 0.1, 0.3)],
+                     "spool_growth_per_s", lambda e: e["spool_growth_per_s"]),
+    "wire stretch": ([{"wire_stretch_mm": v} for v in (0.1, 0.3, 1.0)], "wire_stretch_mm",
+                     lambda e: e["wire_stretch_mm"]),
+    "crank inertia": ([{"return_spring_hz": v} for v in (10.0, 6.0, 3.0)], "return_spring_hz",
+                      lambda e: e["return_spring_hz"]),
+    "clock scale": ([{"fps_label": FPS * v} for v in (1.01, 1.03, 1.1)], "clock_scale",
+                    lambda e: e["fps_label"] / FPS),
+    "eccentric spool": ([{"spool_eccentricity": v, "spool_radius_mm": 1.0}
+                         for v in (0.05, 0.1, 0.2)], "drive_ripple_mm",
+                        lambda e: e["spool_eccentricity"] * e["spool_radius_mm"]),
+    "dead band": ([{"dead_band_deg": v} for v in (0.5, 1.0, 2.0)], "play_deg",
+                  lambda e: e["dead_band_deg"]),
+    "Coulomb friction": ([{"return_spring_hz": 3.0, "coulomb_rad_s2": v}
+                          for v in (0.5, 1.0, 2.0)], "coulomb_rad_s2",
+                         lambda e: e["coulomb_rad_s2"]),
+    "lens": ([{"k1": v} for v in (-0.05, -0.1, -0.15)], "lens_edge_pct",
+             lambda e: TRUE_VALUE["k1"](e["k1"])),
+    "tilt": ([{"tilt_deg": v} for v in (3.0, 5.0, 8.0)], "tilt_vertical_deg",
+             lambda e: e["tilt_deg"]),
+    "rolling shutter": ([{"readout_s": v} for v in (0.01, 0.02, 0.033)], "readout_s",
+                        lambda e: e["readout_s"]),
+    "servo stall (outside)": ([{"servo_stall_s": v} for v in (0.05, 0.1, 0.2)],
+                              "unexplained", None),
+}
+
+
+def open_world_renders(nulls: int) -> None:
+    """The open world on tracked renders (480×270, 30 fps, 2.5 s, σ 2.5 DN, H.264): every
+    case of :data:`RENDERED_CASES` at three sizes and ``nulls`` null renders, each
+    tracked and looped as `cranktrack fit` does (camera candidates included)."""
+    t0 = time.perf_counter()
+    rows = []
+    for seed in range(nulls):
+        r = loop(tracked(f"null_n2.5_s{seed}", {}, seed, 2.5), None, None)
+        rows.append({"truth": "none", "size": "", "named": r["effects"],
+                     "unexplained": bool(r["unexplained"])})
+    for label, (sizes, expect, truth) in RENDERED_CASES.items():
+        for i, fields in enumerate(sizes):
+            name = "ow_" + "_".join(f"{k}{v:g}" for k, v in fields.items())
+            effect = next(iter(fields))
+            r = loop(tracked(name, fields, i, 2.5), effect, fields[effect])
+            rows.append(_open_world_row(label, fields, expect, truth, r))
+            print(f"  {label}, {rows[-1]['size']}: named {r['effects'] or 'nothing'}"
+                  + (" (unexplained)" if r["unexplained"] else ""), flush=True)
+    print(f"\nOpen world on tracked renders, σ 2.5 DN ({time.perf_counter() - t0:.0f} s)")
+    print_open_world(rows)
 
 
 def loop_speed() -> None:
@@ -439,6 +505,10 @@ def main_bench() -> None:
     ap.add_argument("--open-world", action="store_true",
                     help="only the loops on physics written apart from the fitter, in memory "
                     "(spool, dynamic and sma beds; about 6 min)")
+    ap.add_argument("--open-world-renders", action="store_true",
+                    help="only the open world on tracked renders: every effect at three sizes "
+                    "and at least 60 null renders (about 15 min the first time; renders are "
+                    "cached)")
     ap.add_argument("--loop-speed", action="store_true",
                     help="only the loop's time on a minute of θ, spool and SMA (about 30 s)")
     ap.add_argument("--sma-only", action="store_true",
@@ -452,6 +522,9 @@ def main_bench() -> None:
         return
     if args.sma_only:
         sma_model(min(args.seeds, 5))
+        return
+    if args.open_world_renders:
+        open_world_renders(max(60, args.seeds))
         return
     if args.open_world:
         open_world(max(60, args.seeds))

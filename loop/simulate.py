@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
+from scipy.optimize import brentq
 
 from ..errors import CranktrackError
 from ..models.dynamics import CrankDynamics, free_response
@@ -214,14 +215,36 @@ def _dynamic_guesses(t: NDArray, theta: NDArray, measured: pd.DataFrame,
         loss = float(np.radians(peaks[0] - peaks[-1])) / (peaks.size - 1)
         base["coulomb_rad_s2"] = 0.5 * loss * wn**2
     guesses = [{**base, "k_d": 2.0 * zeta * wn} for zeta in zetas]
-    # The same swing with the wire carrying half the stiffness: from k_s = 0 the wire
-    # does nothing, and an effect that acts through it (play) cannot be fitted there.
+    # From k_s = 0 the wire does nothing, and an effect that acts through it (play)
+    # cannot be fitted there: also start from the wire carrying most of the stiffness.
+    shared = _wire_sharing(guesses[0], wn, 0.75, held)
+    if shared:
+        guesses.insert(1, shared)
+    return guesses
+
+
+def _wire_sharing(guess: dict[str, float], wn: float, share: float,
+                  held: dict[str, float]) -> dict[str, float] | None:
+    """``guess`` with the wire giving ``share`` of the stiffness ωn² (1/s²) and the
+    torsion spring the rest, its rest angle moved so the crank still settles where the
+    swing does; None where no such angle is within 60° of it."""
+    rest = np.radians(guess["theta_rest_deg"])
     L1, L2 = held.get("L1_mm", 1.0), held.get("L2_mm", 1.0)
     per_k_s = -float(CrankDynamics(I=1.0, k_l=0.0, k_s=1.0, L1=L1, L2=L2,
-                                   theta0=np.radians(rest)).daccel_dtheta(np.radians(rest)))
-    if per_k_s > 0:
-        guesses.insert(1, {**guesses[0], "k_l": 0.5 * wn**2, "k_s": 0.5 * wn**2 / per_k_s})
-    return guesses
+                                   theta0=rest).daccel_dtheta(rest))
+    if not per_k_s > 0:
+        return None
+    k_l, k_s = (1.0 - share) * wn**2, share * wn**2 / per_k_s
+
+    def settles_off(theta0: float) -> float:
+        return float(CrankDynamics(I=1.0, k_l=k_l, k_s=k_s, L1=L1, L2=L2,
+                                   theta0=theta0).accel(rest))
+
+    lo, hi = rest - np.radians(60.0), rest + np.radians(60.0)
+    if settles_off(lo) * settles_off(hi) > 0:
+        return None
+    theta0 = brentq(settles_off, lo, hi, xtol=1e-10)
+    return {**guess, "k_l": k_l, "k_s": k_s, "theta_rest_deg": float(np.degrees(theta0))}
 
 
 def sma_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -63,6 +63,10 @@ EFFECTS: dict[str, EffectInfo] = {
         "physical", "1",
         "the spool turns off-centre, so the wire's speed ripples by ± this fraction once per "
         "spool turn (the fitter's drive_ripple_mm: offset = this × the spool radius)"),
+    "spool_radius_mm": EffectInfo(
+        "physical", "mm",
+        "the spool's bare radius (3 mm unless given): one turn winds 2π × this much wire, "
+        "which sets the period of an eccentric spool's ripple"),
     "dead_band_deg": EffectInfo(
         "physical", "deg",
         "play between the wire and the crank (the fitter's play_deg): on the spool the "
@@ -136,6 +140,8 @@ def check_effects(out: dict[str, float]) -> dict[str, float]:
         raise CranktrackError("return_spring_zeta needs return_spring_hz")
     if "pivot_hz" in out and "pivot_amp_mm" not in out:
         raise CranktrackError("pivot_hz needs pivot_amp_mm")
+    if "spool_radius_mm" in out and not out["spool_radius_mm"] > 0:
+        raise CranktrackError("spool_radius_mm must be positive")
     if not 0 <= out.get("spool_eccentricity", 0) < 1:
         raise CranktrackError("spool_eccentricity is a fraction of the radius, from 0 to below 1")
     for name in ("readout_s", "pivot_amp_mm", "pivot_hz", "exposure_s", "drive_delay_s",
@@ -149,6 +155,7 @@ def check_effects(out: dict[str, float]) -> dict[str, float]:
 _SPOOL_FIELDS = {"slack_mm": "slack_mm", "return_spring_hz": "ring_hz",
                  "return_spring_zeta": "ring_zeta", "wire_stretch_mm": "stretch_mm",
                  "drive_delay_s": "delay_s", "spool_eccentricity": "eccentricity",
+                 "spool_radius_mm": "spool_radius_mm",
                  "dead_band_deg": "dead_band_deg", "coulomb_rad_s2": "coulomb_rad_s2"}
 
 

@@ -440,3 +440,30 @@ def test_a_marker_lost_for_a_second_is_looked_for_less_often_and_found_when_back
     assert statuses[35:45].count("not_sought") >= 6, statuses[35:45]
     back = statuses[45:].index("ok")
     assert back < 4 and set(statuses[45 + back:]) == {"ok"}, statuses[45:]
+
+
+@pytest.mark.parametrize("last", ["dimmed", "covered"])
+def test_a_ball_dimmed_as_a_whole_is_found_and_one_half_hidden_is_not(last):
+    # Tracker's ball toss: the ball falls out of the light in its last frame and shows
+    # 80 % of its usual Σα, as a covered ball would; only the covered one is a gap.
+    state = TrackerState.start(parse_markers(["ball=white@30,120"]))
+    path = [(30.0 + 25.0 * i, 120.0 - 8.0 * i + 0.3 * i * i) for i in range(8)]
+    dim = tuple(0.78 * c + 0.22 * 12.0 for c in WHITE)
+
+    def bar(image):  # a dark post in front of the ball's right third
+        x, y = path[-1]
+        image[int(y) - 8:int(y) + 9, int(x) + 2:int(x) + 9] = (12.0, 12.0, 12.0)
+
+    for i, (x, y) in enumerate(path):
+        final = i == len(path) - 1
+        colour = dim if final and last == "dimmed" else WHITE
+        image = draw([(x, y, 5.0, colour)], seed=i,
+                     extra=bar if final and last == "covered" else None)
+        found = locate(image, state=state, t_s=i / 30).set_index("marker")
+        if not final:
+            assert found.at["ball", "status"] == "ok", (i, found)
+    if last == "dimmed":
+        assert found.at["ball", "status"] == "ok"
+        assert np.hypot(found.at["ball", "x_px"] - x, found.at["ball", "y_px"] - y) < 0.2
+    else:
+        assert found.at["ball", "status"] == "partly_covered"

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
 
@@ -37,6 +38,9 @@ class Centre:
     #: Skewness of a blob's coverage along its length (:func:`blob_centroid`): ≈ 0
     #: for a strip or a streak, large for a ball with a stalk.
     skew: float = np.nan
+    #: The 90th percentile of α within 0.6 of the fitted radius: ≈ 1 for a marker
+    #: at its learned brightness, covered or not; lower for one dimmed as a whole.
+    peak: float = np.nan
 
 
 def weighted_centroid(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
@@ -155,3 +159,28 @@ def blob_centroid(alpha: NDArray, x0: float, y0: float, guess: tuple[float, floa
     return Centre(cx + x0, cy + y0, float(np.sqrt(max(var_x, var_y))),
                   float(np.sqrt(total / np.pi)), True, gain=float(np.percentile(a[core], 90)),
                   area=total, length_px=float(hi), width_px=float(lo), skew=skew)
+
+
+def core_peak(alpha: NDArray, x0: float, y0: float, centre: Centre) -> float:
+    """The 90th percentile of α within 0.6 radius of ``centre`` (the patch's top-left
+    pixel at image ``x0``, ``y0``); NaN where no pixel is that close."""
+    return _core_peak(np.asarray(alpha, np.float64), centre.x - x0, centre.y - y0,
+                      0.6 * centre.radius)
+
+
+@njit(cache=True, nogil=True)
+def _core_peak(alpha: NDArray, cx: float, cy: float, reach: float) -> float:
+    # Compiled: it runs for every disc marker on every frame (numpy's percentile
+    # on a few dozen pixels cost 0.1 ms).
+    h, w = alpha.shape
+    values = np.empty(h * w)
+    n = 0
+    for i in range(max(int(cy - reach), 0), min(int(cy + reach) + 2, h)):
+        for j in range(max(int(cx - reach), 0), min(int(cx + reach) + 2, w)):
+            if (j - cx) ** 2 + (i - cy) ** 2 <= reach * reach:
+                values[n] = alpha[i, j]
+                n += 1
+    if n == 0:
+        return np.nan
+    ranked = np.sort(values[:n])
+    return ranked[int(0.9 * (n - 1))]

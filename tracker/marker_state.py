@@ -60,6 +60,7 @@ class MarkerState:
     marker: NDArray | None = None  # learned marker chroma
     residual: float | None = None  # usual RMS residual of the disc fit
     area_alpha: float | None = None  # usual visible area Σα, px²
+    peak: float | None = None  # usual α in the marker's middle (Centre.peak)
     #: Usual fitted coverage gain (1 for a disc; a strip of tape fitted as a disc
     #: shows ≈ 1.5, its blur and gain trading off), learned after the size.
     gain: float | None = None
@@ -106,7 +107,16 @@ class MarkerState:
         if centre.rim or self.learning:
             return True
         if self.area_alpha is not None and np.isfinite(centre.area):
-            if not 1 - AREA_TOLERANCE <= centre.area / self.area_alpha <= 1 + AREA_TOLERANCE:
+            shown = centre.area / self.area_alpha
+            if shown < 1 - AREA_TOLERANCE:
+                # Less area: covered, or dimmed as a whole (a ball falling out of the
+                # light). Covered, its middle keeps its usual α; dimmed, it does not,
+                # and the area in its own brightness is whole.
+                dim = (centre.peak / self.peak if self.peak and np.isfinite(centre.peak)
+                       else 1.0)
+                if dim > 1 - AREA_TOLERANCE / 2 or shown / dim < 1 - AREA_TOLERANCE:
+                    return False
+            elif shown > 1 + AREA_TOLERANCE:
                 return False
         if self.residual is None or not np.isfinite(centre.rms_residual):
             return True
@@ -119,7 +129,7 @@ class MarkerState:
         if self.learning and np.isfinite(centre.radius):
             self.radii_seen.append(centre.radius)
             self.radius = float(np.median(self.radii_seen))
-            self.residual = self.area_alpha = None
+            self.residual = self.area_alpha = self.peak = None
         if np.isfinite(centre.rms_residual):
             self.residual = (centre.rms_residual if self.residual is None
                              else 0.9 * self.residual + 0.1 * centre.rms_residual)
@@ -129,6 +139,9 @@ class MarkerState:
         if np.isfinite(centre.area) and not centre.rim:
             self.area_alpha = (centre.area if self.area_alpha is None
                                else 0.9 * self.area_alpha + 0.1 * centre.area)
+        if np.isfinite(centre.peak):
+            self.peak = (centre.peak if self.peak is None
+                         else 0.9 * self.peak + 0.1 * centre.peak)
         self.shape = centre.params
         if seen is not None:
             self.marker = seen if self.marker is None else 0.9 * self.marker + 0.1 * seen

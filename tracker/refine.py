@@ -21,10 +21,12 @@ Cramér–Rao bound; ``bench/README.md`` says which won.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from numpy.typing import NDArray
 
-from .centre import Centre, blob_centroid, weighted_centroid
+from .centre import Centre, blob_centroid, core_peak, weighted_centroid
 from .coverage import local_coverage
 from .disc import fit_disc, fit_disc_cells
 from .edges import fit_edges
@@ -112,7 +114,7 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
         # The decoder's own 4:2:0 planes: the chroma is refitted where it was stored.
         fit = fit_disc_cells(alpha, x0, y0, fit)
     if fit.ok:
-        return fit, seen
+        return replace(fit, peak=core_peak(alpha, x0, y0, fit)), seen
     if rim is None:
         # Perhaps not a flat disc (a shaded ball, a bead on its string): its rim.
         outline, _ = _rim(image, guess, radius, marker, luminance)
