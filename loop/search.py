@@ -327,9 +327,13 @@ class _Fitter:
         # and from the data's own first guess (a base fit that bent its lengths to
         # mimic an effect can sit in a valley the effect cannot leave).
         guess = self.guess
+        # Effects fitted together start where each ended alone, so the data's other
+        # guesses are for an effect's first fit (they cost the free swing's loop a
+        # minute on a minute of θ when two effects were fitted together from each).
+        extra = self.spec.effect_guesses if len(effects) == 1 else 1
         origins = (self.guesses if start_from is guess and not effects
                    else [start_from] if start_from is guess
-                   else [start_from, *self.guesses[:self.spec.effect_guesses]])
+                   else [start_from, *self.guesses[:extra]])
         starts = [[o[p.name] for p in self.base_free] + list(es)
                   for es in effect_starts for o in origins]
         scanned = [n for n in effects if self.candidates[n].scan is not None

@@ -31,9 +31,11 @@ from scipy.optimize import brentq
 
 from .crank_slider import l3_from_theta
 
-#: Largest integration step of :func:`free_response`, s: RK4 at 1 ms is within 1e-9
-#: rad of Dormand–Prince at rtol 1e-10 on the thesis's swings (a few rad/s).
-FREE_STEP_S = 1e-3
+#: Largest integration step of :func:`free_response`, s. RK4 at 4 ms is within 3e-6° of
+#: the independent rig (``synthetic/free_swing.py``, DOP853 at rtol 1e-11) over the free
+#: scenario's minute, with dry friction or play (1 ms: 2e-8°, four times the work); it
+#: stays stable up to ωn ≈ 700 rad/s (k_l ≈ 5e5 1/s², above the fit's bound of 1e5).
+FREE_STEP_S = 4e-3
 
 
 @njit(cache=True)
@@ -60,6 +62,36 @@ def _rk4(th: float, om: float, h: float, sense: float, p: tuple) -> tuple[float,
 
 
 @njit(cache=True)
+def _rk4_across(th: float, om: float, h: float, sense: float, p: tuple
+                ) -> tuple[float, float]:
+    """:func:`_rk4` over ``h``, split where θ crosses an edge of the play's band
+    (``p[7]`` half-width about ``p[8]``), found by bisection: the wire's torque has a
+    kink there, and a step across it would lose RK4's order (0.0012° at 4 ms steps)."""
+    half, neutral = p[7], p[8]
+    rest = h
+    for _ in range(4):  # at most both edges and back within one step
+        th1, om1 = _rk4(th, om, rest, sense, p)
+        if half <= 0.0:
+            return th1, om1
+        first = rest
+        for edge in (neutral - half, neutral + half):
+            if (th - edge) * (th1 - edge) < 0.0:
+                lo, hi = 0.0, rest
+                for _ in range(40):
+                    mid = 0.5 * (lo + hi)
+                    if (_rk4(th, om, mid, sense, p)[0] - edge) * (th - edge) > 0.0:
+                        lo = mid
+                    else:
+                        hi = mid
+                first = min(first, hi)
+        if first >= rest:
+            return th1, om1
+        th, om = _rk4(th, om, first, sense, p)
+        rest -= first
+    return _rk4(th, om, rest, sense, p)
+
+
+@njit(cache=True)
 def _free_response(t: np.ndarray, th: float, om: float, p: tuple,
                    max_step: float) -> tuple[np.ndarray, np.ndarray]:
     """θ and θ' at times ``t`` under eq. 3.28 per unit inertia, with stick–slip dry friction
@@ -82,7 +114,7 @@ def _free_response(t: np.ndarray, th: float, om: float, p: tuple,
                 stuck = True
                 break
             sense = math.copysign(1.0, om if om != 0.0 else rest)
-            th1, om1 = _rk4(th, om, h, sense, p)
+            th1, om1 = _rk4_across(th, om, h, sense, p)
             if mu > 0.0 and om1 * sense < 0.0:
                 lo, hi = 0.0, h  # it stopped within this step: find where
                 for _ in range(40):
