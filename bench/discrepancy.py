@@ -101,7 +101,8 @@ def sma_model(seeds: int) -> None:
     print(f"  null renders: {false} of {seeds} with a false discovery")
     for effect, ladder, known in (("thermal_lag_s", (0.05, 0.1, 0.2, 0.4), SMA_KNOWN),
                                   ("damping_Nms_rad", (0.02, 0.05, 0.1),
-                                   {**SMA_KNOWN, **THERMAL_KNOWN})):
+                                   {**SMA_KNOWN, **THERMAL_KNOWN}),
+                                  ("coulomb_Nm", (0.01, 0.03, 0.1), SMA_KNOWN)):
         for size in ladder:
             r = run_sma(f"sma_{effect}_{size:g}", {effect: size}, 0, known)
             p = r["parameters"].get(effect)
@@ -155,15 +156,19 @@ def dynamic_model(seeds: int) -> None:
         false += bool(close_loop(pd.read_csv(run / "kinematics.csv"), {}, "dynamic",
                                     view=camera_view(run)).effects)
     print(f"  null renders: {false} of {seeds} with a false discovery")
-    for size in (0.05, 0.1, 0.3, 1.0):
-        run = tracked(f"free_coulomb_{size:g}", {"coulomb_rad_s2": size}, 0, 2.5, "free")
-        r = close_loop(pd.read_csv(run / "kinematics.csv"), {}, "dynamic",
-                       view=camera_view(run)).to_dict()
-        p = r["parameters"].get("coulomb_rad_s2")
-        got = (f"{p['value']:.4g} ± {p['sigma']:.2g} (z {(p['value'] - size) / p['sigma']:+.2f})"
-               if p else "not found")
-        print(f"  coulomb_rad_s2 = {size:g}: named {r['effects'] or 'nothing'}; {got}; θ RMSE "
-              f"{r['rmse_before_deg']:.4g}° → {r['rmse_after_deg']:.4g}°")
+    # The render's dead band is the fitter's play_deg (synthetic/free_swing.py's lever).
+    for effect, named, sizes in (("coulomb_rad_s2", "coulomb_rad_s2", (0.05, 0.1, 0.3, 1.0)),
+                                 ("dead_band_deg", "play_deg", (0.5, 1.0, 2.0))):
+        for size in sizes:
+            short = "coulomb" if effect == "coulomb_rad_s2" else "play"
+            run = tracked(f"free_{short}_{size:g}", {effect: size}, 0, 2.5, "free")
+            r = close_loop(pd.read_csv(run / "kinematics.csv"), {}, "dynamic",
+                           view=camera_view(run)).to_dict()
+            p = r["parameters"].get(named)
+            got = (f"{p['value']:.4g} ± {p['sigma']:.2g} "
+                   f"(z {(p['value'] - size) / p['sigma']:+.2f})" if p else "not found")
+            print(f"  {effect} = {size:g}: named {r['effects'] or 'nothing'}; {got}; θ RMSE "
+                  f"{r['rmse_before_deg']:.4g}° → {r['rmse_after_deg']:.4g}°", flush=True)
 
 
 def frame_motion(seeds: int) -> None:
@@ -511,6 +516,8 @@ def main_bench() -> None:
                     "cached)")
     ap.add_argument("--loop-speed", action="store_true",
                     help="only the loop's time on a minute of θ, spool and SMA (about 30 s)")
+    ap.add_argument("--dynamic-only", action="store_true",
+                    help="only the dynamic model's null renders and ladders (free response)")
     ap.add_argument("--sma-only", action="store_true",
                     help="only the SMA model's null renders and ladders (slow: ~2 min a fit)")
     args = ap.parse_args()
@@ -522,6 +529,9 @@ def main_bench() -> None:
         return
     if args.sma_only:
         sma_model(min(args.seeds, 5))
+        return
+    if args.dynamic_only:
+        dynamic_model(min(args.seeds, 10))
         return
     if args.open_world_renders:
         open_world_renders(max(60, args.seeds))
