@@ -249,9 +249,9 @@ def _wire_sharing(guess: dict[str, float], wn: float, share: float,
 
 def sma_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[np.float64]:
     """θ (rad) of the SMA bed: the heat model on a 5 ms grid (LSODA, rtol 1e-7), ξ through the
-    optional thermal lag, and the crank where the torques balance (damper to first
-    order; held by the optional dry friction): within 0.04° of the full equation of
-    motion, a hundred times faster."""
+    optional thermal lag, and the crank where the torques balance (relaxing towards
+    it through the damper; held by the optional dry friction): within 0.04° of the
+    full equation of motion, a hundred times faster."""
     v = values
     dt = v.get("time_offset_s", 0.0)
     if not v["current_off_s"] > v["current_on_s"]:
