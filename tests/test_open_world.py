@@ -331,6 +331,27 @@ def test_the_sma_rigs_stick_slip_and_the_fitters_friction_band_agree():
     assert np.degrees(np.max(np.abs(ours - rubbing))) < 0.02
 
 
+@pytest.mark.parametrize("extra", [0.0, 0.1])
+def test_the_fitters_sma_bed_follows_a_heavily_damped_rig(extra):
+    # The rig integrates inertia and damper; the fitter has the crank relax towards
+    # its balance. Taking that lag to first order (θ − c·θ'/k) was 2° off at 0.1.
+    from cranktrack.loop.simulate import sma_theta
+    from cranktrack.models.heat import SMAWire
+    from cranktrack.models.sma_bed import SMABed
+    from cranktrack.synthetic.scenarios import SMAScenario
+    from cranktrack.synthetic.sma_rig import current_step
+
+    w = SMAWire()
+    t = np.arange(150) / 30.0
+    bed = SMABed(damping_Nms_rad=SMABed.damping_Nms_rad + extra)
+    theirs = SMAScenario(bed=bed).rig.response(t, current_step(1.3, 0.5, 3.0))[0]
+    ours = sma_theta({**SMA_KNOWN, "ambient_C": w.T_amb_C, "L1_mm": 305.0, "L2_mm": 24.1,
+                      "theta0_deg": 125.0, "recovery_strain": 0.0325, "h_W_m2K": w.h_W_m2K,
+                      "As_C": w.As_C, "Af_C": w.Af_C, "Ms_C": w.Ms_C, "Mf_C": w.Mf_C,
+                      "damping_Nms_rad": extra}, t)
+    assert np.degrees(np.max(np.abs(ours - theirs))) < 0.1
+
+
 @pytest.mark.parametrize("coulomb_Nm", [0.015, 0.03])
 def test_the_sma_model_finds_dry_friction_it_did_not_render(coulomb_Nm):
     # The base model takes up most of it (0.015 N·m leaves a white residual 1.34× the
