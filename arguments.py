@@ -146,8 +146,8 @@ def _synth_command(sub: argparse._SubParsersAction) -> None:
                         "dead_band_deg, "
                         "servo_stall_s, dropped_frames, fps_label, k1, k2, tilt_deg, "
                         "exposure_s, readout_s, pivot_amp_mm, pivot_hz, coulomb_rad_s2 (free, "
-                        "or spool with return_spring_hz), thermal_lag_s, damping_Nms_rad "
-                        "and coulomb_Nm (sma)")
+                        "or spool with return_spring_hz), thermal_lag_s, strain_delay_s, "
+                        "damping_Nms_rad and coulomb_Nm (sma)")
     p.add_argument("--declare-effects", action="store_true",
                    help="list the effects in scene.json (off: data with an undeclared effect)")
     p.add_argument("--theta-init-deg", type=float, default=70.0,

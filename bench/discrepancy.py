@@ -463,8 +463,9 @@ def open_world_models(nulls: int) -> None:
         return free(0.0, seed, t, play_deg)
 
     def sma(lag: float, seed: int, t: np.ndarray, known: dict = sma_known,
-            coulomb_Nm: float = 0.0) -> dict:
-        rig = with_(SMAScenario().rig, thermal_lag_s=lag, coulomb_Nm=coulomb_Nm)
+            coulomb_Nm: float = 0.0, delay: float = 0.0) -> dict:
+        rig = with_(SMAScenario().rig, thermal_lag_s=lag, coulomb_Nm=coulomb_Nm,
+                    strain_delay_s=delay)
         theta = rig.response(t, current)[0]
         table = measured_table(theta, t, sigma, seed=seed, correlation=rho, L1_mm=rig.L1_mm,
                                L2_mm=rig.L2_mm)
@@ -473,6 +474,9 @@ def open_world_models(nulls: int) -> None:
     cases = [("dynamic", "coulomb_rad_s2", free, (0.2, 0.4, 0.8), np.arange(180) / FPS),
              ("dynamic", "play_deg", free_play, (0.5, 1.0, 2.0, 4.0), np.arange(180) / FPS),
              ("sma", "thermal_lag_s", sma, (0.1, 0.2, 0.5), np.arange(150) / FPS),
+             # The lag's other form, a dead time: the same as the current switched late.
+             ("sma", "time_offset_s", lambda d, seed, t: sma(0.0, seed, t, delay=d),
+              (0.05, 0.1, 0.2), np.arange(150) / FPS),
              ("sma", "coulomb_Nm", lambda mu, seed, t: sma(0.0, seed, t, coulomb_Nm=mu),
               (0.005, 0.01, 0.015, 0.03, 0.05), np.arange(150) / FPS)]
     done = set()

@@ -116,6 +116,11 @@ EFFECTS: dict[str, EffectInfo] = {
                              "the current until the wire's pull has changed by twice the "
                              "friction, then trails its balance and stops short of both end "
                              "angles"),
+    "strain_delay_s": EffectInfo("physical", "s", "(sma scenario) a dead time between the "
+                                 "wire's transformation and its length: the crank answers "
+                                 "each switch of the current this much later (the fitter "
+                                 "calls it time_offset_s; thermal_lag_s is the lag's other "
+                                 "form)"),
     "coulomb_rad_s2": EffectInfo("physical", "rad/s²", "dry friction at the pivot: in "
                                  "the free scenario the swing shrinks by the same angle every "
                                  "half cycle instead of by the same fraction and the crank "
@@ -127,7 +132,7 @@ EFFECTS: dict[str, EffectInfo] = {
 #: Physical effects of the free-response scenario.
 FREE_ONLY = ("coulomb_rad_s2",)
 #: Physical effects of the SMA bed.
-SMA_ONLY = ("thermal_lag_s", "damping_Nms_rad", "coulomb_Nm")
+SMA_ONLY = ("thermal_lag_s", "damping_Nms_rad", "coulomb_Nm", "strain_delay_s")
 
 #: Effects that work on any scenario (the rest of the physical ones are the spool's).
 ANY_SCENARIO = ("pivot_amp_mm", "pivot_hz")
@@ -145,7 +150,8 @@ def check_effects(out: dict[str, float]) -> dict[str, float]:
     if not 0 <= out.get("spool_eccentricity", 0) < 1:
         raise CranktrackError("spool_eccentricity is a fraction of the radius, from 0 to below 1")
     for name in ("readout_s", "pivot_amp_mm", "pivot_hz", "exposure_s", "drive_delay_s",
-                 "dead_band_deg", "coulomb_rad_s2", "servo_stall_s"):
+                 "dead_band_deg", "coulomb_rad_s2", "servo_stall_s", "coulomb_Nm",
+                 "strain_delay_s", "thermal_lag_s", "damping_Nms_rad"):
         if name in out and out[name] < 0:
             raise CranktrackError(f"{name} cannot be negative")
     return out

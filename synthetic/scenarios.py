@@ -172,6 +172,9 @@ class SMAScenario:
     name: str = "sma"
     #: Dry friction at the pivot, N·m: an effect the fitter's lumped model lacks.
     coulomb_Nm: float = 0.0
+    #: A dead time between the transformation and the wire's length, s (the other
+    #: form of ``bed.thermal_lag_s``'s lag).
+    strain_delay_s: float = 0.0
 
     def motion(self, t_s: ArrayLike) -> Motion:
         """Motion at times ``t_s`` (s, from 0), from one dense solution per clip (the
@@ -190,7 +193,7 @@ class SMAScenario:
         return SMARig(b.L1, b.L2, np.radians(b.theta0_deg), b.recovery_strain,
                       b.E_austenite_Pa, b.E_martensite_Pa, b.bias_k_Nm_rad, b.preload_N,
                       b.inertia_kg_m2, b.damping_Nms_rad, SMAWireParts(**asdict(b.thermal)),
-                      b.thermal_lag_s, self.coulomb_Nm)
+                      b.thermal_lag_s, self.coulomb_Nm, self.strain_delay_s)
 
     def extent_mm(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The crank's whole circle and the frame."""

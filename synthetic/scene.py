@@ -198,8 +198,9 @@ def render_scene(
         bed = scenario.bed
         scenario = replace(scenario, bed=replace(
             bed, damping_Nms_rad=bed.damping_Nms_rad + effects["damping_Nms_rad"]))
-    if "coulomb_Nm" in effects:
-        scenario = replace(scenario, coulomb_Nm=effects["coulomb_Nm"])
+    for name in ("coulomb_Nm", "strain_delay_s"):
+        if name in effects:
+            scenario = replace(scenario, **{name: effects[name]})
     if "dead_band_deg" in effects and isinstance(scenario, FreeScenario):
         physical.pop("dead_band_deg")
         scenario = replace(scenario, dynamics=replace(

@@ -15,7 +15,9 @@ imports nothing from ``models/`` and builds the same rig another way:
   can only rise, along the curve between M_f and M_s. A branch starts from the
   ξ the wire had when the direction turned.
 - **A strain that lags its transformation** (``thermal_lag_s``): the fraction
-  that sets the wire's length relaxes towards ξ at that time constant.
+  that sets the wire's length relaxes towards ξ at that time constant. Or, the
+  other form of a lag, a dead time (``strain_delay_s``): the length follows ξ
+  as it was that long before.
 - **The crank with inertia**, against the torsion spring, the damper and the
   wire, whose pull on B is a vector along B→C (it cannot push). The wire's
   natural length is L_A·(1 + ε_L·ξ) and its modulus the two phases in series.
@@ -93,6 +95,7 @@ class SMARig:
     wire: SMAWireParts
     thermal_lag_s: float = 0.0
     coulomb_Nm: float = 0.0
+    strain_delay_s: float = 0.0
 
     # --- geometry -------------------------------------------------------------
     def _tip(self, theta: float) -> tuple[float, float]:
@@ -206,6 +209,8 @@ class SMARig:
                 strain_xi = xi + (strain_xi - xi) * math.exp(-step_s / self.thermal_lag_s)
             else:
                 strain_xi = xi
+        if self.strain_delay_s > 0:  # the length follows ξ as it was that long before
+            xi_out = np.interp(t - self.strain_delay_s, t, xi_out, left=xi_out[0])
         return t, T_out, xi_out
 
     # --- the crank ------------------------------------------------------------

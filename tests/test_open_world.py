@@ -366,6 +366,23 @@ def test_the_sma_model_finds_dry_friction_it_did_not_render(coulomb_Nm):
     assert result["rmse_after_deg"] < 1.1 * SIGMA
 
 
+def test_the_sma_models_late_current_is_the_rigs_dead_time_in_the_strain():
+    # The lag's other form: the wire's length follows ξ as it was 0.1 s before, which
+    # is the current switched 0.1 s late for the fitter's time-invariant heat model.
+    from dataclasses import replace
+
+    from cranktrack.synthetic.scenarios import SMAScenario
+    from cranktrack.synthetic.sma_rig import current_step
+
+    t = np.arange(150) / 30.0
+    rig = replace(SMAScenario().rig, strain_delay_s=0.1)
+    theta = rig.response(t, current_step(1.3, 0.5, 3.0))[0]
+    table = measured_table(theta, t, SIGMA, seed=3, L1_mm=305.0, L2_mm=24.1)
+    result = close_loop(table, SMA_KNOWN, model="sma").to_dict()
+    assert result["effects"] == ["time_offset_s"]
+    assert abs(result["parameters"]["time_offset_s"]["value"] - 0.1) < 0.01
+
+
 def test_the_loop_reports_each_fit_it_starts():
     # What `cranktrack fit` shows as progress: the base model first, then the effects.
     calls: list[tuple[str, ...]] = []
