@@ -478,7 +478,8 @@ def _add_effects(fitter: _Fitter, base: ModelFit, tryable: list[Candidate], nois
     alone: dict[str, CandidateScore] = {}
     for rnd in range(1, len(tryable) + 1):
         rms = float(np.sqrt(np.mean(current.residual**2)))
-        if ljung_box_p(current.residual) >= WHITE_P and rms <= WHITE_BUT_LARGE * floor_rad:
+        within = floor_rad <= 0 or rms <= WHITE_BUT_LARGE * floor_rad
+        if ljung_box_p(current.residual) >= WHITE_P and within:
             break  # nothing structured, nor more than the noise, left to explain
         tried = []
         for c in tryable:

@@ -96,8 +96,8 @@ def _spool_guess(t: NDArray, theta: NDArray, measured: pd.DataFrame,
 def dynamic_theta(values: dict[str, float], t_s: NDArray[np.float64]) -> NDArray[np.float64]:
     """θ (rad) of the free response (eq. 3.28, unit inertia, ε = 0.05) from t_s[0], with
     stick–slip dry friction and play between wire and crank when ``values`` sets them
-    (compiled RK4, 1 ms steps:
-    :func:`cranktrack.models.dynamics.free_response`, ~1 ms a simulation)."""
+    (compiled RK4, 4 ms steps: :func:`cranktrack.models.dynamics.free_response`, a few
+    ms for a minute of swing)."""
     v = values
     dyn = CrankDynamics(I=1.0, k_l=v["k_l"], k_s=v["k_s"], k_d=v["k_d"], L1=v["L1_mm"],
                         L2=v["L2_mm"], theta0=np.radians(v["theta_rest_deg"]),
