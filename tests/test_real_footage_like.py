@@ -442,7 +442,7 @@ def test_a_marker_lost_for_a_second_is_looked_for_less_often_and_found_when_back
     assert back < 4 and set(statuses[45 + back:]) == {"ok"}, statuses[45:]
 
 
-@pytest.mark.parametrize("last", ["dimmed", "covered"])
+@pytest.mark.parametrize("last", ["dimmed", "covered", "barred"])
 def test_a_ball_dimmed_as_a_whole_is_found_and_one_half_hidden_is_not(last):
     # Tracker's ball toss: the ball falls out of the light in its last frame and shows
     # 80 % of its usual Σα, as a covered ball would; only the covered one is a gap.
@@ -454,16 +454,22 @@ def test_a_ball_dimmed_as_a_whole_is_found_and_one_half_hidden_is_not(last):
         x, y = path[-1]
         image[int(y) - 8:int(y) + 9, int(x) + 2:int(x) + 9] = (12.0, 12.0, 12.0)
 
+    def across(image):  # a dark rod across the ball's middle: its core is hidden
+        x, y = path[-1]
+        image[int(y) - 2:int(y) + 3, int(x) - 9:int(x) + 10] = (12.0, 12.0, 12.0)
+
     for i, (x, y) in enumerate(path):
         final = i == len(path) - 1
         colour = dim if final and last == "dimmed" else WHITE
-        image = draw([(x, y, 5.0, colour)], seed=i,
-                     extra=bar if final and last == "covered" else None)
+        cover = {"covered": bar, "barred": across}.get(last) if final else None
+        image = draw([(x, y, 5.0, colour)], seed=i, extra=cover)
         found = locate(image, state=state, t_s=i / 30).set_index("marker")
         if not final:
             assert found.at["ball", "status"] == "ok", (i, found)
     if last == "dimmed":
         assert found.at["ball", "status"] == "ok"
         assert np.hypot(found.at["ball", "x_px"] - x, found.at["ball", "y_px"] - y) < 0.2
-    else:
+    elif last == "covered":
         assert found.at["ball", "status"] == "partly_covered"
+    else:  # its middle dark: a gap, whatever the fit made of it
+        assert found.at["ball", "status"] != "ok"

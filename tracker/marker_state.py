@@ -17,6 +17,10 @@ RESIDUAL_LIMIT = 1.6
 #: A marker whose visible area Σα differs from its usual by more than this
 #: fraction is not whole (partly covered), or not alone.
 AREA_TOLERANCE = 0.2
+#: A marker whose middle is dimmed to no less than this fraction of its usual α is
+#: judged by its area in its own brightness (Tracker's ball toss: 0.73 in its last
+#: frame); darker, it is taken as covered.
+DIMMED_MIN = 0.5
 
 #: A marker's size is learned over the first this many frames it is found in, not
 #: from the first alone: on a real clip the first frame was a still in which a
@@ -111,10 +115,12 @@ class MarkerState:
             if shown < 1 - AREA_TOLERANCE:
                 # Less area: covered, or dimmed as a whole (a ball falling out of the
                 # light). Covered, its middle keeps its usual α; dimmed, it does not,
-                # and the area in its own brightness is whole.
+                # and the area in its own brightness is whole. A middle at less than
+                # half its brightness is more likely hidden itself (a bar across it).
                 dim = (centre.peak / self.peak if self.peak and np.isfinite(centre.peak)
                        else 1.0)
-                if dim > 1 - AREA_TOLERANCE / 2 or shown / dim < 1 - AREA_TOLERANCE:
+                if not DIMMED_MIN <= dim <= 1 - AREA_TOLERANCE / 2 \
+                        or shown / dim < 1 - AREA_TOLERANCE:
                     return False
             elif shown > 1 + AREA_TOLERANCE:
                 return False
