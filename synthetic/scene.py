@@ -214,6 +214,8 @@ def render_scene(
                                                       coulomb=effects["coulomb_rad_s2"]))
     if physical:
         if not isinstance(scenario, SpoolScenario):
+            if "dead_band_deg" in physical:
+                raise CranktrackError("dead_band_deg applies to the spool and free scenarios")
             raise CranktrackError(f"the effects {sorted(physical)} apply to the spool scenario")
         scenario = EffectedSpool(scenario, physical)
     if effects.get("pivot_amp_mm", 0) > 0:

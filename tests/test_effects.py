@@ -227,3 +227,15 @@ def test_wire_stretch_makes_the_crank_lag_where_the_moment_arm_is_small():
     moving = (T > 0.6) & (T < 1.5)
     np.testing.assert_allclose(np.gradient(m.theta, T)[moving], m.omega[moving], rtol=1e-3,
                                atol=1e-5)
+
+
+def test_a_dead_band_renders_on_the_free_swing_and_is_refused_on_the_sma_bed(tmp_path):
+    from cranktrack.synthetic.scenarios import FreeScenario, SMAScenario
+    from cranktrack.synthetic.scene import RenderSettings, render_effects
+
+    settings = RenderSettings(size=(160, 120), seconds=0.2)
+    free = render_effects(FreeScenario(), tmp_path / "free", settings, {"dead_band_deg": 2.0})
+    assert free.video.exists()
+    with pytest.raises(CranktrackError, match="spool and free scenarios"):
+        render_effects(SMAScenario(), tmp_path / "sma", settings, {"dead_band_deg": 2.0})
+    assert not (tmp_path / "sma").exists()  # refused before anything is written
