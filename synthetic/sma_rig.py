@@ -252,8 +252,7 @@ class SMARig:
                     continue
                 sense = math.copysign(1.0, pull)
                 a = accel(th, 0.0, xi[k - 1], sense)  # it breaks loose from rest
-            elif mu > 0:
-                sense = math.copysign(1.0, om) if om != 0.0 else sense
+            # (Sliding, the sense stays: a step whose speed changes sign ends at rest.)
 
             def residual(th1: float, th=th, om=om, a=a, dt=dt, x=xi[k], s=sense) -> float:
                 om1 = 2.0 * (th1 - th) / dt - om
