@@ -61,10 +61,23 @@ class Clip:
     trk: str = ""
     #: The falling mass in paper clips, for "drag" (terminal speed² ∝ mass).
     mass_clips: float = float("nan")
+    #: Another file in ``examples/`` holding the same footage, tracked in place of the
+    #: project's video; the peer's frame k is its frame ``first + step·k``.
+    video: str = ""
+    first: int = 0
+    step: int = 1
 
 
 CLIPS = (
     Clip("BallToss.trz", "ball", "ball=white@131,208", "parabola"),
+    # The same toss at the camera's 30 fps, every frame: the project's clip is every
+    # other one of these (its frame k is frame 2k + 6 here, the same pixels to the
+    # codec's noise), played at 66.0 ms a frame where the file's clock says 66.7.
+    # Tracker ships it twice, as H.264 in .mp4 and in .mov.
+    Clip("BallToss.trz", "ball", "ball=white@131,208", "parabola",
+         video="BallTossOut.mp4", first=6, step=2),
+    Clip("BallToss.trz", "ball", "ball=white@131,208", "parabola",
+         video="BallTossOut.mov", first=6, step=2),
     # A Jmol rendering of a vibrating molecule (1920×1080): shaded spheres behind
     # bonds and other atoms of the same colour; the peer followed one cyan atom.
     # The vibration is an animation loop, so the physics is its repetition.
@@ -216,6 +229,18 @@ def repeat_coverage(xy: NDArray, sigma: NDArray, lag: int) -> float:
     return float(np.mean(np.abs(d[keep]) <= np.broadcast_to(s, d.shape)[keep]))
 
 
+def _same_pixels(video: Path, other: Path, clip: Clip) -> str:
+    """How alike the first frame of ``video`` and its frame in ``other`` are (DN, grey),
+    against the frames either side there: the check that the frame map is right."""
+    def grey(path: Path) -> list[NDArray]:
+        return [f.rgb.mean(axis=2) for f in open_frames(path, None).frames()]
+
+    a, b = grey(video), grey(other)
+    k = clip.first + clip.step
+    diffs = [float(np.mean(np.abs(a[1] - b[j]))) for j in (k - 1, k, k + 1)]
+    return f"{diffs[1]:.2f} DN, against {diffs[0]:.2f} and {diffs[2]:.2f} a frame either side"
+
+
 def decode_seconds(video: Path, fps: float | None) -> float:
     t0 = time.perf_counter()
     for f in open_frames(video, fps).frames():
@@ -231,6 +256,16 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
         print(f"{clip.trz}: not in {repo}; skipped")
         return {}
     video, fps, clicks, scale = peer_project(trz, clip.mass, clip.trk)
+    if clip.video:
+        other = _extract(repo, clip.video)
+        if other is None:
+            print(f"{clip.video}: not in {repo}; skipped")
+            return {}
+        print(f"\n{clip.video}: the footage of {clip.trz} at its own clock; the peer's "
+              f"frame k is frame {clip.first} + {clip.step}·k here "
+              f"(mean |difference| {_same_pixels(video, other, clip)})")
+        video, fps = other, None
+        clicks = {clip.first + clip.step * k: xy for k, xy in clicks.items()}
     specs = parse_markers([clip.marker])
     t0 = time.perf_counter()
     result = track(open_frames(video, fps), specs)
@@ -243,7 +278,8 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
     ok = rows[f"{name}_ok"].to_numpy(bool)
     ours = rows[[f"{name}_x_px", f"{name}_y_px"]].to_numpy(float)
     theirs = np.array([clicks[f] for f in peer_frames])
-    print(f"\n{clip.trz} ({video.name}, {len(tab)} frames; the peer clicked "
+    print(f"{'' if clip.video else chr(10)}{clip.trz} ({video.name}, {len(tab)} frames; "
+          "the peer clicked "
           f"{len(peer_frames)}): `--marker {clip.marker}`")
     print(f"  found in {ok.sum()} of the {len(peer_frames)} frames the peer clicked "
           f"({100 * ok.mean():.0f} %); statuses elsewhere: "
@@ -260,9 +296,17 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
           f"RMS after removing it {rms:.2f} px")
     t = rows["t_s"].to_numpy(float)
     if clip.physics == "parabola":
-        g_ours, resid = parabola_g(t[ok], ours[ok], scale)
+        # Every frame found in flight, between the peer's first and last click (on a
+        # clip at the camera's own rate, the frames between those the peer clicked).
+        between = tab[(tab["frame"] >= peer_frames[0]) & (tab["frame"] <= peer_frames[-1])]
+        span = between[between[f"{name}_ok"].astype(bool)]
+        flight = span[[f"{name}_x_px", f"{name}_y_px"]].to_numpy(float)
+        t_flight = span["t_s"].to_numpy(float)
+        g_ours, resid = parabola_g(t_flight, flight, scale)
         g_peer, resid_peer = parabola_g(t, theirs, scale)
-        sigma = rows[f"{name}_sigma_px"].to_numpy(float)[ok]
+        sigma = span[f"{name}_sigma_px"].to_numpy(float)
+        print(f"  in flight: found in {len(span)} of the {len(between)} frames from the peer's "
+              "first click to its last")
         inside = np.abs(resid) <= sigma[:, None]
         print(f"  parabola: g = {g_ours:.3f} m/s² from our track "
               f"({100 * (g_ours / 9.80 - 1):+.1f} % against 9.80), {g_peer:.3f} from the "
@@ -278,7 +322,7 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
               "(near 0 for noise; near +1 when the residual is the model's, not the track's)")
         # The same flight in a plane that need not face the camera: what is left is
         # closer to the track's own error (still with drag and spin in it).
-        tilted = perspective_parabola(t[ok], ours[ok])
+        tilted = perspective_parabola(t_flight, flight)
         dof = np.sqrt(tilted.size / (tilted.size - 8))  # 8 parameters fitted
         print(f"  against a flight in a tilted plane (perspective parabola): residual RMS "
               f"{np.sqrt(np.mean(tilted**2)):.3f} px ours, "

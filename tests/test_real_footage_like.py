@@ -473,3 +473,33 @@ def test_a_ball_dimmed_as_a_whole_is_found_and_one_half_hidden_is_not(last):
         assert found.at["ball", "status"] == "partly_covered"
     else:  # its middle dark: a gap, whatever the fit made of it
         assert found.at["ball", "status"] != "ok"
+
+
+def test_a_placed_marker_is_found_when_it_reaches_its_place_between_whole_frame_searches():
+    # Tracker's 30 fps ball toss: the ball is where the user said (where it leaves the
+    # hand) only in frame 10; the whole frame is searched for a marker never seen in
+    # its first 8 frames and then every 8th, and the ball was never found.
+    state = TrackerState.start(parse_markers(["ball=white@60,140"]))
+    found_at = {}
+    for k in range(14):
+        discs = [] if k < 10 else [(60.0 + 30.0 * (k - 10), 140.0 - 25.0 * (k - 10), 4.5, WHITE)]
+        row = locate(draw(discs, seed=k), state=state, t_s=k / 30).loc[0]
+        if row["status"] == "ok":
+            found_at[k] = (row["x_px"], row["y_px"])
+    assert sorted(found_at) == [10, 11, 12, 13], found_at
+    for k, (x, y) in found_at.items():
+        assert abs(x - (60.0 + 30.0 * (k - 10))) < 0.2 and abs(y - (140.0 - 25.0 * (k - 10))) < 0.2
+
+
+def test_a_ball_seen_once_is_taken_by_its_size_not_for_the_nearer_knuckle():
+    # Seen once, a marker has no velocity: the thrown ball is 42 px (9 radii) on a
+    # frame later, and a knuckle of the hand that threw it, white and within the
+    # ball's size gate, 28 px from where the ball was.
+    state = TrackerState.start(parse_markers(["ball=white@60,140"]))
+    knuckle = (40.0, 160.0, 3.2, WHITE)
+    path = [(60.0, 140.0), (90.0, 110.5), (118.0, 86.0), (144.0, 66.5)]
+    for k, (x, y) in enumerate(path):
+        discs = [(x, y, 4.6, WHITE)] + ([knuckle] if k else [])
+        row = locate(draw(discs, seed=k), state=state, t_s=k / 30).loc[0]
+        assert row["status"] == "ok", (k, row)
+        assert abs(row["x_px"] - x) < 0.2 and abs(row["y_px"] - y) < 0.2, (k, row)

@@ -22,6 +22,7 @@ from .markers import (
     find_blobs,
     white_balance_gains,
 )
+from .refine import patch_around
 from .video import Frame
 
 #: A marker that is not where it was looked for is sought in the whole frame only
@@ -97,6 +98,35 @@ def full_blobs(frame: Frame, spec: MarkerSpec, hsv_cache: dict) -> list[Blob]:
     return found[spec]
 
 
+#: Half-width (px) of the window searched on every frame around where the user said
+#: a marker not yet found is (``--marker NAME=COLOUR@X,Y``). A blob farther than
+#: :func:`placed_reach` from that place is not taken for it anyway.
+PLACED_WINDOW_PX = 64
+
+
+def placed_reach(blob: Blob) -> float:
+    """How far (px) from where the user said a marker is its first blob may lie."""
+    return 4.0 * blob.radius + 20.0
+
+
+def placed_blob(frame: Frame, state: MarkerState, hsv_cache: dict) -> tuple[Blob | None, str]:
+    """The blob of a marker not yet found in the window around where the user said it
+    is. Searched on every frame (a window costs little), where the whole frame is
+    searched only at the back-off rate: on Tracker's 30 fps ball toss the ball leaves
+    the hand at the place given in frame 10, between two whole-frame searches, and
+    was then never found."""
+    near = state.spec.near_px
+    patch, x0, y0 = patch_around(frame, near[0], near[1], PLACED_WINDOW_PX)
+    if hsv_cache.get("gains") is None:
+        hsv_cache["gains"] = white_balance_gains(frame.rgb)
+    hsv = balanced_hsv(patch, hsv_cache["gains"])
+    blob, status, _ = acquire(hsv, state.spec, state.area, near, state.area_gates,
+                              lambda spec: find_blobs(hsv, spec, x0, y0))
+    if blob is not None and np.hypot(blob.x - near[0], blob.y - near[1]) > placed_reach(blob):
+        return None, "not_found"
+    return blob, status
+
+
 def full_frame_blob(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
                      pred: tuple[float, float] | None) -> tuple[Blob | None, str]:
     """The marker's blob in the whole frame, white-balanced (lost, or never seen)."""
@@ -105,7 +135,7 @@ def full_frame_blob(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
                                    state.area_gates,
                                    lambda spec: full_blobs(frame, spec, hsv_cache))
     if blob is not None and pred is None and near is not None and np.hypot(
-            blob.x - near[0], blob.y - near[1]) > 4 * blob.radius + 20:
+            blob.x - near[0], blob.y - near[1]) > placed_reach(blob):
         return None, "not_found"  # not yet where the user said it is
     # Where the user said the marker is, the blob there was taken: the others are not
     # a guess to warn of.

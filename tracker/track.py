@@ -43,6 +43,7 @@ from .search import (
     full_frame_blob,
     full_hsv,
     other_blobs,
+    placed_blob,
     search_whole_frame,
     search_window,
     window,
@@ -117,6 +118,12 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict
                     if np.hypot(b.x - pred[0], b.y - pred[1]) <= half]
             blob, status = choose_blob(near, state.area, pred, shape=state.spec.takes)
     whole_frame = blob is None
+    if whole_frame and pred is None and state.spec.near_px is not None \
+            and not search_whole_frame(state, pred):
+        blob, status = placed_blob(frame, state, hsv_cache)
+        whole_frame = False
+        if blob is None:
+            return None, status
     if whole_frame:
         if not search_whole_frame(state, pred):
             return None, status
@@ -135,12 +142,35 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict
             centre, seen, failure = _refine_blob(frame, state, other, hsv_cache)
             if not failure:
                 break
+    elif not failure and whole_frame and len(state.history) == 1 and state.radius:
+        centre, seen = _likest(frame, state, hsv_cache, pred, blob, centre, seen)
     if failure:
         return None, failure
     if state.radius is None:
         state.radius = centre.radius
     state.remember(centre, seen)
     return centre, "ok"
+
+
+def _likest(frame: Frame, state: MarkerState, hsv_cache: dict, pred: tuple[float, float],
+            blob: Blob, centre: Centre, seen: NDArray | None
+            ) -> tuple[Centre, NDArray | None]:
+    """Of the blobs within reach of a marker seen once, the fit nearest its size.
+
+    With no velocity yet, nearness says little: on Tracker's ball toss the ball is 36
+    px (8 radii) from its first fix a frame later, and a knuckle of the hand that
+    threw it 29 px, of the ball's colour and within its size gate (a fit of radius
+    3.4 px against 4.6). A marker's size changes little from one frame to the next,
+    so the fit whose radius is closest to the first one's is taken."""
+    def unlike(c: Centre) -> float:
+        return abs(np.log(c.radius / state.radius))
+
+    best = (centre, seen)
+    for other in other_blobs(frame, state, hsv_cache, pred, blob, wide=True):
+        c, s, failure = _refine_blob(frame, state, other, hsv_cache)
+        if not failure and unlike(c) < unlike(best[0]):
+            best = (c, s)
+    return best
 
 
 def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
