@@ -503,3 +503,27 @@ def test_a_ball_seen_once_is_taken_by_its_size_not_for_the_nearer_knuckle():
         row = locate(draw(discs, seed=k), state=state, t_s=k / 30).loc[0]
         assert row["status"] == "ok", (k, row)
         assert abs(row["x_px"] - x) < 0.2 and abs(row["y_px"] - y) < 0.2, (k, row)
+
+
+@pytest.mark.parametrize("where", [(30.0, 30.0), (12.0, 60.0), (180.0, 165.0)])
+def test_blobs_are_the_same_wherever_the_frame_around_them_ends(where):
+    # find_blobs labels only the box around its colour's pixels: a bead on a string of
+    # its colour (given as its inner disc, from a distance map) and a plain disc are
+    # the same found in the frame or in a copy with 40 px more background all round.
+    from cranktrack.tracker.markers import balanced_hsv, find_blobs
+
+    x, y = where
+    red = (220.0, 40.0, 40.0)
+
+    def string(image):
+        image[int(y) - 1:int(y) + 2, max(int(x) - 25, 0):int(x) + 26] = red  # through it
+
+    image = draw([(x, y, 8.0, red), (120.0, 40.0, 6.0, red)], extra=string)
+    spec = parse_markers(["bead=red"])[0]
+    padded = np.pad(image, ((40, 40), (40, 40), (0, 0)))
+    as_is = find_blobs(balanced_hsv(image, None), spec)
+    moved = find_blobs(balanced_hsv(padded, None), spec, -40, -40)
+    assert any(b.cored for b in as_is) and len(as_is) == 2
+    for a, b in zip(sorted(as_is, key=lambda b: b.x), sorted(moved, key=lambda b: b.x),
+                    strict=True):
+        assert (a.x, a.y, a.area, a.cored) == pytest.approx((b.x, b.y, b.area, b.cored))

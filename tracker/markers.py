@@ -235,6 +235,19 @@ def find_blobs(hsv: NDArray[np.uint8], spec: MarkerSpec, x0: int = 0, y0: int = 
     radius to a pixel or so), for the refinement to take from there.
     """
     mask = spec.mask(hsv)
+    # Labelling costs 0.7 ms on a 640×480 frame even where the colour is nowhere, and
+    # a lost marker's colour is looked for in whole frames: only the box around the
+    # colour's pixels is labelled. A pixel of margin where the image goes on keeps a
+    # blob's distance map (:func:`_core`) the whole image's: with it, all 164,802
+    # blobs of OpenCV's sample clips (every 7th frame, three saturation floors) are
+    # as before; without it, some on box.mp4 were not.
+    bx, by, bw, bh = cv2.boundingRect(mask)
+    if bw == 0 or bh == 0:
+        return []
+    h, w = mask.shape
+    bx0, by0 = max(bx - 1, 0), max(by - 1, 0)
+    mask = mask[by0:min(by + bh + 1, h), bx0:min(bx + bw + 1, w)]
+    x0, y0 = x0 + bx0, y0 + by0
     n, labels, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
     blobs = []
     for k in range(1, n):
