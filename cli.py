@@ -332,9 +332,11 @@ def cmd_inspect(args: argparse.Namespace) -> int:
               "most marker-like first")
         print(format_table(rows))
         picks = " ".join(f"--marker {m}" for m in table["marker"].head(3))
+        # A folder of pictures has no clock: the command needs the rate given here.
+        fps = f" --fps {args.fps:g}" if args.fps else ""
         # Quoted, so that a path with spaces (Tracker's examples have them) pastes.
         print("\nrename the ones you want and track them, e.g.:\n  cranktrack track "
-              f"{shlex.quote(str(video))} {picks} --out run")
+              f"{shlex.quote(str(video))}{fps} {picks} --out run")
     print(f"wrote {out}")
     return 0
 

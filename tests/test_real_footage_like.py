@@ -7,6 +7,8 @@ truth: each pixel is coloured by the fraction a disc covers (8×8 sub-samples),
 sharing no code with the tracker.
 """
 
+import shlex
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -117,7 +119,8 @@ def test_markers_as_people_type_them():
             parse_markers(bad)
 
 
-def test_inspect_lists_each_marker_with_a_marker_option_that_tracks_it(tmp_path, capsys):
+def test_inspect_lists_each_marker_with_a_marker_option_that_tracks_it(tmp_path, capsys,
+                                                                       monkeypatch):
     import cv2
 
     from cranktrack.cli import main
@@ -142,8 +145,13 @@ def test_inspect_lists_each_marker_with_a_marker_option_that_tracks_it(tmp_path,
         cv2.imwrite(str(frames / f"f{i:03d}.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
     assert main(["inspect", str(frames), "--fps", "10", "--out", str(tmp_path / "s.png")]) == 0
     out = capsys.readouterr().out
-    assert "white@60,91" in out and f"cranktrack track '{frames}' " in out
+    assert "white@60,91" in out and f"cranktrack track '{frames}' --fps 10 " in out
     assert (tmp_path / "s.png").stat().st_size > 1000
+    # ...and that command works as printed (a folder of pictures needs its --fps).
+    command = next(line for line in out.splitlines() if "cranktrack track" in line)
+    monkeypatch.chdir(tmp_path)
+    assert main(shlex.split(command)[1:]) == 0
+    assert (tmp_path / "run" / "tracks.csv").exists()
 
 
 def test_two_markers_never_share_one_blob():
