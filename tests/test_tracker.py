@@ -226,3 +226,23 @@ def test_gaps_are_filled_only_on_request_and_flagged(render):
     # circle, so a straight line between the ends is off by up to a few px).
     assert (err < 3 * gap["B_sigma_px"] + 0.1).all()
     assert fill_gaps(t, ("A", "B", "C"), max_frames=9).loc[25:34, "B_x_px"].isna().all()
+
+
+def test_a_cell_refit_that_runs_off_on_a_small_lumpy_blob_keeps_the_pixel_fit():
+    # A 3 px disc under α noise of 0.3 shared by 2×2 cells: about 20 cells for six
+    # parameters. Unchecked, this draw's refit claimed σ = 7e-120 px (a webcam
+    # clip's blue sign gave 1e-37 to 1e-144); it may not claim less than half the
+    # pixel fit's σ, from the same pixels.
+    rng = np.random.default_rng(211)
+    r, cx, cy = rng.uniform(2.5, 3.5), 12 + rng.uniform(0, 1), 12 + rng.uniform(0, 1)
+    sub = 8
+    yy, xx = (np.mgrid[0:24 * sub, 0:24 * sub] + 0.5) / sub - 0.5
+    disc = (((xx - cx) ** 2 + (yy - cy) ** 2) < r * r).reshape(24, sub, 24, sub).mean((1, 3))
+    alpha = disc + rng.normal(0, 0.3, disc.shape)
+    alpha = np.repeat(np.repeat(alpha[::2, ::2], 2, 0), 2, 1)
+    Y, X = np.mgrid[0:24, 0:24]
+    alpha[(X - 12.5) ** 2 + (Y - 12.5) ** 2 > (r + 3) ** 2] = np.nan
+    pixel = fit_disc(alpha, 0, 0, (cx, cy), r)
+    assert pixel.ok
+    cell = fit_disc_cells(alpha, 0, 0, pixel)
+    assert cell.sigma >= 0.5 * pixel.sigma > 0.01
