@@ -223,7 +223,7 @@ def _track_command(sub: argparse._SubParsersAction) -> None:
                         "corner, width, height); positions stay in the whole frame's pixels")
     p.add_argument("--marker", action="append", metavar="NAME=COLOUR[@X,Y]",
                    help="a marker and its colour: red, green, blue, yellow, …, a hue in "
-                        "degrees, #RRGGBB, or white/black (found by contrast); @X,Y says "
+                        "degrees, #RRGGBB, or white/black/grey (found by contrast); @X,Y says "
                         "where it is at first (px). Repeat per marker. Naming only A, B or "
                         "C recolours them; naming any other tracks exactly the named ones. "
                         "Defaults: A=green B=red C=blue")

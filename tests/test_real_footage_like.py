@@ -535,3 +535,12 @@ def test_blobs_are_the_same_wherever_the_frame_around_them_ends(where):
     for a, b in zip(sorted(as_is, key=lambda b: b.x), sorted(moved, key=lambda b: b.x),
                     strict=True):
         assert (a.x, a.y, a.area, a.cored) == pytest.approx((b.x, b.y, b.area, b.cored))
+
+
+@pytest.mark.parametrize("background", [(225.0, 225.0, 220.0), (25.0, 25.0, 28.0)])
+def test_a_grey_marker_is_found_on_a_pale_board_and_on_a_dark_floor(background):
+    image = draw([(80.4, 70.7, 6.0, (125.0, 125.0, 122.0))], background=background)
+    found = locate(image, parse_markers(["disc=grey"])).set_index("marker")
+    assert found.at["disc", "status"] == "ok"
+    assert abs(found.at["disc", "x_px"] - 80.4) < 0.1 and abs(found.at["disc", "y_px"] - 70.7) < 0.1
+    assert parse_markers(["disc=gray"])[0].tone == "grey"

@@ -40,8 +40,8 @@ class MarkerSpec:
 
     ``hue_deg`` ± ``hue_tol_deg`` on the hue circle, saturation and value at
     least ``min_saturation`` and ``min_value`` (0–1), and a blob of at least
-    ``min_area_px`` pixels. ``tone`` ``"white"`` or ``"black"`` makes it a
-    luminance marker instead: brighter (darker) than its surroundings by
+    ``min_area_px`` pixels. ``tone`` ``"white"``, ``"black"`` or ``"grey"`` makes it
+    a luminance marker instead: brighter (darker; either) than its surroundings by
     :data:`TONE_CONTRAST_DN`, with saturation at most ``min_saturation``; the hue
     is then unused.
     """
@@ -72,13 +72,14 @@ class MarkerSpec:
 
     @classmethod
     def from_colour(cls, name: str, colour: str) -> MarkerSpec:
-        """A spec from a colour name (``red``, ``green``, …, ``white``, ``black``), a hue
-        in degrees, or ``#RRGGBB`` (a colour of little saturation is white or black)."""
+        """A spec from a colour name (``red``, ``green``, …, ``white``, ``black``,
+        ``grey``), a hue in degrees, or ``#RRGGBB`` (a colour of little saturation is
+        white or black)."""
         key = colour.strip().lower()
         if key in COLOUR_HUES_DEG:
             return cls(name, COLOUR_HUES_DEG[key])
-        if key in ("white", "black"):
-            return cls(name, 0.0, min_saturation=0.35, tone=key)
+        if key in ("white", "black", "grey", "gray"):
+            return cls(name, 0.0, min_saturation=0.35, tone=key.replace("gray", "grey"))
         if key.startswith("#"):
             try:
                 r, g, b = (int(key[i:i + 2], 16) / 255.0 for i in (1, 3, 5))
@@ -97,7 +98,7 @@ class MarkerSpec:
             known = ", ".join(COLOUR_HUES_DEG)
             raise CranktrackError(
                 f"unknown marker colour {colour!r} for {name}; use one of {known}, white, "
-                "black, a hue in degrees or #RRGGBB") from None
+                "black, grey, a hue in degrees or #RRGGBB") from None
         if not 0.0 <= hue <= 360.0:
             raise CranktrackError(f"marker {name}'s hue {colour.strip()} is outside 0–360°")
         return cls(name, hue % 360.0)
@@ -106,8 +107,14 @@ class MarkerSpec:
         """Pixels of this colour (255) in an OpenCV 8-bit HSV image."""
         if self.tone:
             value = np.ascontiguousarray(hsv[..., 2])
-            op = cv2.MORPH_TOPHAT if self.tone == "white" else cv2.MORPH_BLACKHAT
-            contrast = cv2.morphologyEx(value, op, _TONE_KERNEL)
+            if self.tone == "grey":
+                # Neither white nor black: standing out from its surroundings either
+                # way (a grey disc on a white board, or on a dark floor).
+                contrast = np.maximum(cv2.morphologyEx(value, cv2.MORPH_TOPHAT, _TONE_KERNEL),
+                                      cv2.morphologyEx(value, cv2.MORPH_BLACKHAT, _TONE_KERNEL))
+            else:
+                op = cv2.MORPH_TOPHAT if self.tone == "white" else cv2.MORPH_BLACKHAT
+                contrast = cv2.morphologyEx(value, op, _TONE_KERNEL)
             grey = hsv[..., 1] <= round(self.min_saturation * 255)
             return ((contrast >= TONE_CONTRAST_DN) & grey).astype(np.uint8) * 255
         s_min = round(self.min_saturation * 255)
