@@ -544,3 +544,39 @@ def test_a_grey_marker_is_found_on_a_pale_board_and_on_a_dark_floor(background):
     assert found.at["disc", "status"] == "ok"
     assert abs(found.at["disc", "x_px"] - 80.4) < 0.1 and abs(found.at["disc", "y_px"] - 70.7) < 0.1
     assert parse_markers(["disc=gray"])[0].tone == "grey"
+
+
+def test_a_marker_at_rest_is_not_taken_for_its_neighbour_while_it_is_hidden():
+    # A cone on the ground beside another of its colour 5 radii off (on OpenCV's
+    # vtest.avi a sign's neighbour was 3.5 radii off): while a passer-by hides it,
+    # the widened window around it holds the neighbour, which was taken and then
+    # followed instead of the marker.
+    state = TrackerState.start(parse_markers(["cone=orange@60,90"]))
+    orange = (235.0, 120.0, 30.0)
+    neighbour = (85.0, 90.0, 5.0, orange)
+
+    def passer_by(image):  # a grey coat over the cone only
+        image[78:103, 50:70] = (90.0, 90.0, 95.0)
+
+    rows = []
+    for k in range(24):
+        hidden = 10 <= k < 15
+        image = draw([(60.0, 90.0, 5.0, orange), neighbour], background=(110.0, 140.0, 80.0),
+                     extra=passer_by if hidden else None, seed=k)
+        rows.append(locate(image, state=state, t_s=k / 25).loc[0])
+    for k, row in enumerate(rows):
+        if row["status"] == "ok":
+            assert abs(row["x_px"] - 60.0) < 0.3 and abs(row["y_px"] - 90.0) < 0.3, (k, row)
+    assert all(rows[k]["status"] == "ok" for k in [*range(10), *range(15, 24)])
+
+
+def test_a_ball_at_rest_that_is_thrown_is_followed_from_its_first_move():
+    state = TrackerState.start(parse_markers(["ball=white@40,140"]))
+    steps = [0.0] * 6 + [2.0, 6.0, 12.0, 20.0, 30.0]  # px a frame along x, speeding up
+    x = 40.0
+    for k, step in enumerate(steps):
+        x += step
+        row = locate(draw([(x, 140.0 - 0.3 * (x - 40.0), 4.5, WHITE)], seed=k), state=state,
+                     t_s=k / 30).loc[0]
+        assert row["status"] == "ok", (k, row)
+        assert abs(row["x_px"] - x) < 0.2, (k, row)

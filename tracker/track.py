@@ -146,6 +146,8 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict
         centre, seen = _likest(frame, state, hsv_cache, pred, blob, centre, seen)
     if failure:
         return None, failure
+    if state.off_its_place(centre, pred):
+        return None, "rejected"  # a neighbour of its colour, not a marker at rest
     if state.radius is None:
         state.radius = centre.radius
     state.remember(centre, seen)
