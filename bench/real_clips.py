@@ -112,9 +112,12 @@ def main() -> None:
 
 
 #: Things at rest in vtest.avi (a fixed camera over a campus path), named as markers
-#: the way `cranktrack inspect` offers them: a traffic cone, a second cone, and an
-#: orange round sign on a yellow stand with another orange patch 14 px below it.
-AT_REST = ("cone=orange@169,191", "cone2=orange@300,200", "sign=orange@447,190")
+#: the way `cranktrack inspect` offers them: a traffic cone, a second cone, an orange
+#: round sign on a yellow stand with another orange patch 14 px below it, the green
+#: "assembly point" board on its post (white lettering: its blob fills 0.48 of its
+#: box) and a white sign on a wall (each about 37 px across).
+AT_REST = ("cone=orange@169,191", "cone2=orange@300,200", "sign=orange@447,190",
+           "board=cyan@429,223", "plate=white@598,55")
 
 
 def at_rest(path: Path) -> None:
