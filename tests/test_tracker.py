@@ -246,3 +246,24 @@ def test_a_cell_refit_that_runs_off_on_a_small_lumpy_blob_keeps_the_pixel_fit():
     assert pixel.ok
     cell = fit_disc_cells(alpha, 0, 0, pixel)
     assert cell.sigma >= 0.5 * pixel.sigma > 0.01
+
+
+def test_a_hard_edged_disc_does_not_make_the_fit_sure_of_itself():
+    # A disc with no blur at its edge (each pixel all in or all out: a thresholded
+    # or synthetic marker) lets the fit's edge run down to a few hundredths of a
+    # pixel, where the model has a slope at almost no pixel. Its σ was then 3.6× below
+    # the scatter of its centres; taken with the edge at EDGE_MIN, 1.9×.
+    rng = np.random.default_rng(3)
+    errors, sigmas = [], []
+    yy, xx = np.mgrid[0:40, 0:40]
+    for _ in range(40):
+        cx, cy = 20 + rng.uniform(-0.5, 0.5), 20 + rng.uniform(-0.5, 0.5)
+        alpha = ((xx - cx) ** 2 + (yy - cy) ** 2 < 36.0).astype(float)
+        alpha += rng.normal(0.0, 0.02, alpha.shape)
+        fit = fit_disc(alpha, 0, 0, (cx + 0.2, cy - 0.1), 6.0)
+        if fit.ok:
+            errors += [fit.x - cx, fit.y - cy]
+            sigmas.append(fit.sigma)
+    assert len(sigmas) >= 35
+    ratio = np.sqrt(np.mean(np.square(errors))) / np.sqrt(np.mean(np.square(sigmas)))
+    assert 0.5 < ratio < 2.0, ratio
