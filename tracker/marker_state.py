@@ -44,11 +44,11 @@ HISTORY_FIXES = 3
 #: the one before stands still, or nearly: a pivot, a cone on the ground (whose fixes
 #: scatter by 0.2–0.7 px on a real clip).
 REST_STEP = 0.25
-#: ...and a marker standing still is not taken farther than this many radii from
-#: where it stood (a neighbour of its colour), for as long as :data:`REST_MEMORY`
+#: ...and a marker standing still is not taken farther than this many radii from its
+#: prediction (that is a neighbour of its colour), for up to :data:`REST_MEMORY`
 #: frames missed. On OpenCV's vtest.avi (a fixed camera) a road sign on a stand,
-#: given as a marker, was taken on its orange neighbour 14 px (3.5 radii) off
-#: whenever its own fit failed, and kept there: 58 % of its frames.
+#: given as a marker, went back and forth between its two orange patches 14 px
+#: (3.5 radii) apart whenever a fit failed: about half its frames on each.
 REST_REACH = 1.5
 REST_MEMORY = 64
 
