@@ -22,6 +22,7 @@ from ..run_folder import (
     TRACKS,
     RunFolder,
 )
+from ..tracker.scatter import at_rest
 
 PANELS = (("theta_deg", "θ (deg)"), ("omega_rad_s", "ω (rad/s)"), ("vB_mm_s", "|v_B| (mm/s)"))
 
@@ -48,6 +49,25 @@ def plot_kinematics(kinematics: pd.DataFrame, comparison: pd.DataFrame | None,
     out = Path(path)
     fig.savefig(out, dpi=110)
     return out
+
+
+def _rest_checks(tracks: pd.DataFrame) -> list[str]:
+    """Lines on each marker that stood still (the pivot A): its scatter about where it
+    stood against the σ the tracker gave, a check of σ on the run's own footage."""
+    lines = []
+    for m in [c[:-3] for c in tracks.columns if c.endswith("_ok")]:
+        ok = tracks[f"{m}_ok"].astype(bool).to_numpy()
+        xy = tracks[[f"{m}_x_px", f"{m}_y_px"]].to_numpy(float, copy=True)
+        xy[~ok] = np.nan
+        check = at_rest(xy, tracks[f"{m}_sigma_px"].to_numpy(float))
+        if check is not None:
+            lines.append(
+                f"- {m} stood still ({check.frames} frames): it scatters by "
+                f"{check.scatter_px:.4f} px per axis about where it stands, its median σ is "
+                f"{check.sigma_px:.4f} px, and ±1σ holds it in {100 * check.coverage:.0f} % of "
+                "coordinates (about 68 % for an honest σ; more: σ too wide; less: σ too "
+                "narrow, or the marker or camera moved).")
+    return ["", *lines] if lines else []
 
 
 def write_report(run: str | os.PathLike) -> Path:
@@ -78,6 +98,7 @@ def write_report(run: str | os.PathLike) -> Path:
         sig = tracks[f"{m}_sigma_px"].to_numpy(float)
         med = f"{np.median(sig[np.isfinite(sig)]):.4f}" if np.isfinite(sig).any() else "–"
         lines.append(f"| {m} | {100 * tracks[f'{m}_ok'].mean():.1f} % | {med} | {st} |")
+    lines += _rest_checks(tracks)
     cal = info.get("calibration")
     if cal:
         lines += ["", "## Calibration", "", f"method: {cal.get('method')}", ""]

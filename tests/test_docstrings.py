@@ -12,6 +12,7 @@ MODULES = [
     "cranktrack.models.crank_slider",
     "cranktrack.kinematics.differentiate",
     "cranktrack.tracker.track",
+    "cranktrack.tracker.scatter",
     "cranktrack.api",
 ]
 

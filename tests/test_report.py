@@ -118,3 +118,18 @@ def test_spawn_without_a_display_is_one_warning_and_the_recording_is_written(run
     lines = [ln for ln in p.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("warning: the Rerun viewer could not start")
     assert read_times(run / "run.rrd", "/video/markers/B").size > 0
+
+
+def test_the_report_checks_sigma_against_the_pivot_at_rest(run):
+    # The pivot A stands still in every render: its scatter about where it stands is
+    # the tracker's error on this footage, whatever the footage, and the report says
+    # how the σ it gave compares. B turns and has no such line.
+    import re
+
+    report = (run / "report.md").read_text()
+    line = next(x for x in report.splitlines() if x.startswith("- A stood still"))
+    assert "B stood still" not in report
+    scatter, sigma, coverage = (float(v) for v in re.findall(
+        r"scatters by ([\d.]+) px.*median σ is ([\d.]+) px.*holds it in (\d+) %", line)[0])
+    assert 0 < scatter < 0.2 and 0 < sigma < 0.2
+    assert 30 <= coverage <= 98, line

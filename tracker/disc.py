@@ -271,12 +271,15 @@ def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
 #: still markers' σ came out the same within 10 % for reaches of 1, 2 and 3.
 CELL_REACH = 2
 
-#: How much smaller than the pixel fit's σ the cell refit's may be. On the H.264
-#: design renders the refit's σ is 0.63–2.3× the pixel fit's (the pixel fit's σ was
-#: 1.2–1.7× the error: the staircase misfit the cells remove). On drawn 2.5–3.5 px
-#: discs with α noise 0.3 over 2×2 cells, refits claiming less than half the pixel
-#: fit's σ were off by 10–33× what they claimed (the pixel fit by 3.5–4×).
-CELL_SIGMA_DROP = 2.0
+#: How much smaller than the pixel fit's σ the cell refit's may be. The pixel fit's σ
+#: is inflated by the staircase misfit the cells remove, the more so the smaller the
+#: marker: the refit's σ is 0.63–2.3× the pixel fit's on the 1280×720 H.264 design
+#: render (15 px markers) and 0.28–1.2× on the 320×240 test render (3.7 px). A
+#: refit that ran off claims far less: 1e-37 to 1e-144 px on a small blue sign in a
+#: webcam clip, 7e-120 px on a drawn lumpy 3 px disc. (A bound of 2 was tried: it
+#: threw away half the test render's good refits and left the pivot's σ 7× its
+#: scatter, which the report's check of a marker at rest showed.)
+CELL_SIGMA_DROP = 10.0
 
 
 @njit(cache=True, nogil=True)
@@ -328,10 +331,11 @@ def fit_disc_cells(alpha: NDArray, x0: int, y0: int, pixel_fit: Centre) -> Centr
     if not (np.isfinite(x) and np.isfinite(y) and var > 0 and np.hypot(
             x - pixel_fit.x, y - pixel_fit.y) <= max(0.5, 5.0 * pixel_fit.sigma)):
         return pixel_fit
-    if 2 * math.sqrt(var) < pixel_fit.sigma / CELL_SIGMA_DROP:
+    if (2 * math.sqrt(var) < pixel_fit.sigma / CELL_SIGMA_DROP
+            or not 0.5 < p[2] / (r / 2) < 2.0 or not p[4] > 0):
         # The same pixels averaged into cells cannot locate the centre many times
-        # better than the pixels did. A refit on a few lumpy cells that ran off (a
-        # negative radius, a slope that vanishes at every sample) claims it: 1e-37 to
-        # 1e-144 px on a small blue sign in a webcam clip (OpenCV's box.mp4).
+        # better than the pixels did, nor make another disc of them: a refit on a few
+        # lumpy cells that ran off (a negative radius, a slope that vanishes at every
+        # sample) is dropped for the pixel fit.
         return pixel_fit
     return replace(pixel_fit, x=float(x), y=float(y), sigma=2 * math.sqrt(var))

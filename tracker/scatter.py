@@ -21,6 +21,7 @@ True
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from math import comb, log
 
 import numpy as np
@@ -76,3 +77,58 @@ def with_scatter_floor(sigma: NDArray[np.floating], xy: NDArray[np.floating]
     floor = scatter_sigma(xy)
     sigma = np.asarray(sigma, float)
     return np.where(np.isfinite(floor) & np.isfinite(sigma), np.fmax(sigma, floor), sigma)
+
+
+#: A marker whose found positions all lie, but for a twentieth of them, within this
+#: of their median on each axis (px), and within :data:`AT_REST_TAIL` times their
+#: own scatter, stood still over the run: the crank-slider's pivot A, a cone on the
+#: ground. A moving marker spans tens of pixels; one that moved by less than a pixel
+#: (the slider of a small render) has a scatter far below its span.
+AT_REST_SPAN_PX = 1.0
+#: For scatter alone (normal), 95 % of positions lie within 1.96 of its σ.
+AT_REST_TAIL = 4.0
+
+
+@dataclass(frozen=True)
+class RestCheck:
+    """A marker that stood still, and its σ against that: its scatter about where it
+    stood (px per axis, from the median absolute deviation), its median σ (px) and
+    the fraction of coordinates within ±1σ of that place (0.68 for an honest σ and
+    no drift)."""
+
+    frames: int
+    scatter_px: float
+    sigma_px: float
+    coverage: float
+
+
+def at_rest(xy: NDArray[np.floating], sigma: NDArray[np.floating]) -> RestCheck | None:
+    """The σ check a marker at rest gives on any footage: positions (n, 2) px and their
+    per-axis 1-σ (n,) px, NaN where not found. None unless at least 10 positions were
+    found and 95 % of them lie within :data:`AT_REST_SPAN_PX` of their median on each
+    axis, and within :data:`AT_REST_TAIL` times their scatter.
+
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> xy = np.array([120.0, 80.0]) + rng.normal(0.0, 0.05, (500, 2))
+    >>> honest = at_rest(xy, np.full(500, 0.05))
+    >>> bool(0.6 < honest.coverage < 0.76), round(honest.scatter_px, 2)
+    (True, 0.05)
+    >>> round(at_rest(xy, np.full(500, 0.0125)).coverage, 1)  # σ 4× too small
+    0.2
+    """
+    xy = np.asarray(xy, float)
+    sigma = np.asarray(sigma, float)
+    found = np.isfinite(xy).all(axis=1) & np.isfinite(sigma)
+    if found.sum() < 10:
+        return None
+    d = xy[found] - np.median(xy[found], axis=0)
+    span = np.quantile(np.abs(d), 0.95, axis=0)
+    if (span > AT_REST_SPAN_PX).any() or (span > AT_REST_TAIL * 1.4826
+                                          * np.median(np.abs(d), axis=0)).any():
+        return None
+    s = sigma[found]
+    return RestCheck(frames=int(found.sum()),
+                     scatter_px=float(1.4826 * np.median(np.abs(d))),
+                     sigma_px=float(np.median(s)),
+                     coverage=float(np.mean(np.abs(d) <= s[:, None])))
