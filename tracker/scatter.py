@@ -1,4 +1,5 @@
-"""How much a track scatters from frame to frame: a floor under each centre's σ.
+"""How much a track scatters: a floor under each centre's σ (from frame to frame),
+and the σ check a marker at rest gives (about where it stands, :func:`at_rest`).
 
 A centre's own σ comes from its fit to one frame's pixels. On real footage that
 fit can be far too sure of itself: compression, blur and a marker that is not
@@ -93,8 +94,8 @@ AT_REST_TAIL = 4.0
 class RestCheck:
     """A marker that stood still, and its σ against that: its scatter about where it
     stood (px per axis, from the median absolute deviation), its median σ (px) and
-    the fraction of coordinates within ±1σ of that place (0.68 for an honest σ and
-    no drift)."""
+    the fraction of coordinates within ±1σ of that place: 0.68 for a σ of the random
+    error alone, more where σ also covers a steady offset, which no scatter shows."""
 
     frames: int
     scatter_px: float
