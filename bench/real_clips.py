@@ -120,7 +120,7 @@ AT_REST = ("cone=orange@169,191", "cone2=orange@300,200", "sign=orange@447,190",
            "board=cyan@429,223", "plate=white@598,55")
 
 
-def at_rest(path: Path) -> None:
+def objects_at_rest(path: Path) -> None:
     """Objects at rest before a fixed camera: the physics is that they do not move, so
     a track's scatter about its median is the tracker's error there (people walking
     past hide them at times). Prints found %, that scatter, the σ the tracker gave
@@ -147,4 +147,4 @@ def at_rest(path: Path) -> None:
 
 if __name__ == "__main__":
     main()
-    at_rest(fetch()["vtest.avi"])
+    objects_at_rest(fetch()["vtest.avi"])

@@ -88,12 +88,17 @@ def search_whole_frame(state: MarkerState, pred: tuple[float, float] | None) -> 
     return state.missed > 0 and state.missed % full_search_interval(state.missed) == 0
 
 
+def balance_gains(frame: Frame, hsv_cache: dict) -> NDArray[np.float32]:
+    """The run's white-balance gains, taken from the first frame that needs them."""
+    if hsv_cache.get("gains") is None:
+        hsv_cache["gains"] = white_balance_gains(frame.rgb)
+    return hsv_cache["gains"]
+
+
 def full_hsv(frame: Frame, hsv_cache: dict) -> NDArray[np.uint8]:
     """The whole frame's white-balanced HSV, made once per frame for all markers."""
     if "full" not in hsv_cache:
-        if hsv_cache.get("gains") is None:
-            hsv_cache["gains"] = white_balance_gains(frame.rgb)
-        hsv_cache["full"] = balanced_hsv(frame.rgb, hsv_cache["gains"])
+        hsv_cache["full"] = balanced_hsv(frame.rgb, balance_gains(frame, hsv_cache))
     return hsv_cache["full"]
 
 
@@ -126,9 +131,7 @@ def placed_blob(frame: Frame, state: MarkerState, hsv_cache: dict) -> tuple[Blob
     was then never found."""
     near = state.spec.near_px
     patch, x0, y0 = patch_around(frame, near[0], near[1], PLACED_WINDOW_PX)
-    if hsv_cache.get("gains") is None:
-        hsv_cache["gains"] = white_balance_gains(frame.rgb)
-    hsv = balanced_hsv(patch, hsv_cache["gains"])
+    hsv = balanced_hsv(patch, balance_gains(frame, hsv_cache))
     blob, status, _ = acquire(hsv, state.spec, state.area, near, state.area_gates,
                               lambda spec: find_blobs(hsv, spec, x0, y0))
     if blob is not None and np.hypot(blob.x - near[0], blob.y - near[1]) > placed_reach(blob):
