@@ -88,6 +88,11 @@ def with_scatter_floor(sigma: NDArray[np.floating], xy: NDArray[np.floating]
 AT_REST_SPAN_PX = 1.0
 #: For scatter alone (normal), 95 % of positions lie within 1.96 of its σ.
 AT_REST_TAIL = 4.0
+#: ...but a span below this (px) is rest whatever the scatter: H.264 leaves a still
+#: marker's pixels unchanged for frames at a time, so its positions repeat to the
+#: digit and their median absolute deviation can be 0.001 px (a test render's pivot,
+#: whose 95 % span was 0.014 px). Motion this small is below what the tracker resolves.
+AT_REST_SPAN_FLOOR_PX = 0.05
 
 
 @dataclass(frozen=True)
@@ -107,7 +112,8 @@ def at_rest(xy: NDArray[np.floating], sigma: NDArray[np.floating]) -> RestCheck 
     """The σ check a marker at rest gives on any footage: positions (n, 2) px and their
     per-axis 1-σ (n,) px, NaN where not found. None unless at least 10 positions were
     found and 95 % of them lie within :data:`AT_REST_SPAN_PX` of their median on each
-    axis, and within :data:`AT_REST_TAIL` times their scatter.
+    axis, and within :data:`AT_REST_TAIL` times their scatter (or within
+    :data:`AT_REST_SPAN_FLOOR_PX`).
 
     >>> import numpy as np
     >>> rng = np.random.default_rng(0)
@@ -125,8 +131,9 @@ def at_rest(xy: NDArray[np.floating], sigma: NDArray[np.floating]) -> RestCheck 
         return None
     d = xy[found] - np.median(xy[found], axis=0)
     span = np.quantile(np.abs(d), 0.95, axis=0)
-    if (span > AT_REST_SPAN_PX).any() or (span > AT_REST_TAIL * 1.4826
-                                          * np.median(np.abs(d), axis=0)).any():
+    tail = np.fmax(AT_REST_TAIL * 1.4826 * np.median(np.abs(d), axis=0),
+                   AT_REST_SPAN_FLOOR_PX)
+    if (span > AT_REST_SPAN_PX).any() or (span > tail).any():
         return None
     s = sigma[found]
     return RestCheck(frames=int(found.sum()),
