@@ -18,6 +18,7 @@ neighbouring rim points do not share the same pixels (about 2 px apart).
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -32,6 +33,10 @@ TUKEY_C = 4.685
 #: Smallest scale of the rim residuals used for weighting, px (a rim from a
 #: clean render can fit to ~0.01 px, which would weigh out sound rays).
 MIN_SCALE_PX = 0.15
+#: Rays are cast again from the fitted centre only when it is this far (px) from
+#: where they were cast: nearer, each ray still crosses the rim within a few
+#: degrees of square, and the fall it finds is in the same place.
+RECAST_PX = 1.0
 #: Fewest rim points kept for a fit to be trusted, and the fraction of rays.
 MIN_POINTS = 8
 MIN_FRACTION = 0.4
@@ -55,11 +60,10 @@ def rim_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, 
     """
     basis = LUMA_BASIS if luminance else CHROMA_BASIS.astype(np.float64)
     P = np.asarray(patch_rgb, np.float64) @ basis.T
+    rho2 = _distance2(P.shape[0], P.shape[1], centre[0] - x0, centre[1] - y0)
+    ring = (rho2 >= (radius + 3) ** 2) & (rho2 <= (radius + 5) ** 2)
+    middle = rho2 <= (0.6 * radius) ** 2
     h, w = P.shape[:2]
-    yy, xx = np.mgrid[0:h, 0:w]
-    rho = np.hypot(xx + x0 - centre[0], yy + y0 - centre[1])
-    ring = (rho >= radius + 3) & (rho <= radius + 5)
-    middle = rho <= 0.6 * radius
     seen = np.median(P[middle], axis=0) if middle.sum() >= 3 else P[h // 2, w // 2]
     if ring.sum() < 8 or middle.sum() < 3:
         return np.full((h, w), np.nan), seen
@@ -69,8 +73,25 @@ def rim_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, 
     return (P - b) @ d / max(float(d @ d), 1e-6), seen
 
 
+def _distance2(h: int, w: int, cx: float, cy: float) -> NDArray[np.float64]:
+    """Squared distance (px²) of each pixel of an h×w patch from (cx, cy), patch px."""
+    yy, xx = np.ogrid[0:h, 0:w]
+    return (xx - cx) ** 2 + (yy - cy) ** 2
+
+
+def middle_peak(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float],
+                radius: float) -> float:
+    """The coverage in a marker's middle: the 90th percentile of α within
+    0.7·``radius`` of ``centre`` (image px); NaN with fewer than 3 pixels there."""
+    inner = (_distance2(*alpha.shape, centre[0] - x0, centre[1] - y0)
+             <= (0.7 * radius) ** 2) & np.isfinite(alpha)
+    if inner.sum() < 3:
+        return float("nan")
+    return float(np.percentile(alpha[inner], 90))
+
+
 def rim_points(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float],
-               radius: float, rays: int) -> NDArray[np.float64]:
+               radius: float, rays: int, peak: float | None = None) -> NDArray[np.float64]:
     """Where each of ``rays`` rays from ``centre`` crosses the marker's rim.
 
     Each ray is sampled every 0.25 px out to where α stops being defined. The
@@ -80,24 +101,19 @@ def rim_points(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float]
     ball's dark side falls from little coverage to none, its highlight dips
     inside: a fixed level would put the rim inside on one and at the dip on
     the other, the steepest fall does not. The place is the drop-weighted mean
-    over ±1 px around that fall. Returns (k, 2) image px; rays with no such
-    fall are left out.
+    over ±1 px around that fall. ``peak`` is that middle's coverage when already
+    known (:func:`middle_peak`). Returns (k, 2) image px; rays with no such fall
+    are left out.
     """
-    h, w = alpha.shape
     cx, cy = centre[0] - x0, centre[1] - y0
-    yy, xx = np.mgrid[0:h, 0:w]
-    inner = ((xx - cx) ** 2 + (yy - cy) ** 2 <= (0.7 * radius) ** 2) & np.isfinite(alpha)
-    if inner.sum() < 3:
-        return np.empty((0, 2))
-    peak = float(np.percentile(alpha[inner], 90))
+    if peak is None:
+        peak = middle_peak(alpha, x0, y0, centre, radius)
     if not peak > 0.1:
         return np.empty((0, 2))
-    step, half = 0.25, 4  # samples per px, and 1 px in samples
-    reach = np.arange(0.0, 2.0 * radius + 4.0, step)
-    angles = np.linspace(0.0, 2.0 * np.pi, rays, endpoint=False)
-    dx, dy = np.cos(angles)[:, None], np.sin(angles)[:, None]
-    mx = (cx + dx * reach[None, :]).astype(np.float32)
-    my = (cy + dy * reach[None, :]).astype(np.float32)
+    half = 4  # samples in 1 px
+    reach, dx, dy = _ray_grid(rays, math.ceil(4 * (2.0 * radius + 4.0)))
+    mx = dx + np.float32(cx)
+    my = dy + np.float32(cy)
     # Undefined α (outside the unmixed window) reads as NaN and ends the ray there.
     a = cv2.remap(np.asarray(alpha, np.float32), mx, my, cv2.INTER_LINEAR,
                   borderMode=cv2.BORDER_CONSTANT, borderValue=np.nan)
@@ -105,7 +121,22 @@ def rim_points(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float]
     drop[:, half:-half] = a[:, :-2 * half] - a[:, 2 * half:]  # fall over 2 px, centred
     r = _rim_radii(drop, reach, peak, half)
     keep = np.isfinite(r)
-    return np.column_stack([x0 + cx + r[keep] * dx[keep, 0], y0 + cy + r[keep] * dy[keep, 0]])
+    ux, uy = dx[keep, 1] / reach[1], dy[keep, 1] / reach[1]
+    return np.column_stack([x0 + cx + r[keep] * ux, y0 + cy + r[keep] * uy])
+
+
+@lru_cache(maxsize=64)
+def _ray_grid(rays: int, samples: int) -> tuple[NDArray, NDArray, NDArray]:
+    """Rays from the origin every 0.25 px: the distances (px, float64) and each
+    sample's x and y offsets (float32, one row per ray). Cached: a marker keeps its
+    radius from frame to frame, and making them cost a fifth of a rim fit."""
+    reach = np.arange(samples) * 0.25
+    angles = np.linspace(0.0, 2.0 * np.pi, rays, endpoint=False)
+    dx = (np.cos(angles)[:, None] * reach[None, :]).astype(np.float32)
+    dy = (np.sin(angles)[:, None] * reach[None, :]).astype(np.float32)
+    for a in (reach, dx, dy):
+        a.flags.writeable = False
+    return reach, dx, dy
 
 
 @njit(cache=True, nogil=True)
@@ -186,21 +217,23 @@ def _least_median_circle(points: NDArray) -> NDArray[np.float64]:
     return out
 
 
-def fit_circle(points: NDArray, iterations: int = 20
+def fit_circle(points: NDArray, iterations: int = 20, start: NDArray | None = None
                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Robust circle through rim points: ((cx, cy, R), 3×3 covariance, weights).
 
     The least-median circle through triples of points starts it (a quarter of
     the rays running up a stalk would pull any least-squares start off by a
-    pixel, and the reweighting then crawls back); Gauss–Newton steps on the geometric
+    pixel, and the reweighting then crawls back), unless ``start`` (cx, cy, R)
+    is given: a circle already fitted to nearly the same rim. Gauss–Newton steps on the geometric
     distance, each reweighted by Tukey's biweight of the residual over
     1.4826·MAD (at least :data:`MIN_SCALE_PX`), follow. The covariance is
     s²·(JᵀWJ)⁻¹ with s² the weighted residual variance.
     """
     x = np.ascontiguousarray(points[:, 0], np.float64)
     y = np.ascontiguousarray(points[:, 1], np.float64)
-    p, wts = _reweighted_circle(
-        x, y, _least_median_circle(np.ascontiguousarray(points, np.float64)), iterations)
+    if start is None:
+        start = _least_median_circle(np.ascontiguousarray(points, np.float64))
+    p, wts = _reweighted_circle(x, y, np.asarray(start, np.float64), iterations)
     ex, ey = x - p[0], y - p[1]
     rho = np.maximum(np.hypot(ex, ey), 1e-9)
     res = rho - p[2]
@@ -258,7 +291,7 @@ def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float]
     """The circle through a marker's rim in a coverage patch (see the module).
 
     Rays are cast from ``guess`` (image px), then again from the fitted
-    centre. ``radius`` is the expected marker radius, px. The result is not
+    centre when that is :data:`RECAST_PX` or more away. ``radius`` is the expected marker radius, px. The result is not
     ``ok`` when fewer than :data:`MIN_POINTS` rim points (or
     :data:`MIN_FRACTION` of the rays) keep weight, when the centre moved
     more than ``radius`` or the fitted radius is outside 0.3–3× ``radius``.
@@ -267,25 +300,30 @@ def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float]
     NaN, since a rim residual (px) is not comparable to a disc fit's (α).
     """
     rays = int(np.clip(round(math.pi * radius), 16, 96))
-    centre = guess
+    cast = guess
     failed = Centre(np.nan, np.nan, np.nan, radius, False)
     p = cov = None
+    # The middle's coverage is read once, around the guess: the second pass's
+    # centre is within a pixel or two of it, well inside 0.7 of the radius.
+    peak = middle_peak(alpha, x0, y0, guess, radius)
     for _ in range(passes):
-        pts = rim_points(alpha, x0, y0, centre, radius, rays)
+        pts = rim_points(alpha, x0, y0, cast, radius, rays, peak)
         if len(pts) < MIN_POINTS:
             return failed
-        p, cov, wts = fit_circle(pts)
+        # A later pass starts from the circle before it, cast from nearly the same
+        # centre: the least-median search over triples is for the first.
+        p, cov, wts = fit_circle(pts, start=p)
         kept = int((wts > 0).sum())
         if kept < max(MIN_POINTS, MIN_FRACTION * rays) or not np.all(np.isfinite(p)):
             return failed
-        centre = (float(p[0]), float(p[1]))
+        if math.hypot(p[0] - cast[0], p[1] - cast[1]) < RECAST_PX:
+            break
+        cast = (float(p[0]), float(p[1]))
     var = 0.5 * (cov[0, 0] + cov[1, 1])
     moved = math.hypot(p[0] - guess[0], p[1] - guess[1])
     if not (np.isfinite(var) and var > 0 and moved < radius and 0.3 * radius < p[2] < 3 * radius):
         return failed
-    h, w = alpha.shape
-    yy, xx = np.mgrid[0:h, 0:w]
-    middle = ((xx + x0 - p[0]) ** 2 + (yy + y0 - p[1]) ** 2 <= (0.5 * p[2]) ** 2) \
+    middle = (_distance2(*alpha.shape, p[0] - x0, p[1] - y0) <= (0.5 * p[2]) ** 2) \
         & np.isfinite(alpha)
     gain = float(np.median(alpha[middle])) if middle.any() else float("nan")
     return Centre(float(p[0]), float(p[1]), float(math.sqrt(var)), float(p[2]), True,
