@@ -291,9 +291,10 @@ def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float]
     """The circle through a marker's rim in a coverage patch (see the module).
 
     Rays are cast from ``guess`` (image px), then again from the fitted
-    centre when that is :data:`RECAST_PX` or more away. ``radius`` is the expected marker radius, px. The result is not
-    ``ok`` when fewer than :data:`MIN_POINTS` rim points (or
-    :data:`MIN_FRACTION` of the rays) keep weight, when the centre moved
+    centre when that is :data:`RECAST_PX` or more away. ``radius`` is the
+    expected marker radius, px. The result is not ``ok`` when fewer than
+    :data:`MIN_POINTS` rim points (or :data:`MIN_FRACTION` of the rays) keep
+    weight, when the centre moved
     more than ``radius`` or the fitted radius is outside 0.3–3× ``radius``.
     The returned gain is the median coverage within half the fitted radius
     (≈ 1 for a whole flat marker of the learned colour); ``rms_residual`` is
