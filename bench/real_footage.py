@@ -34,6 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
@@ -256,6 +257,17 @@ def decode_seconds(video: Path, fps: float | None) -> float:
     return time.perf_counter() - t0
 
 
+def timed_track(video: Path, fps: float | None, marker: str
+                ) -> tuple[pd.DataFrame, str, float, float]:
+    """Track one ``--marker`` through ``video``: the tracks, the marker's name, and the
+    seconds taken by tracking and by decoding alone."""
+    specs = parse_markers([marker])
+    t0 = time.perf_counter()
+    result = track(open_frames(video, fps), specs)
+    track_s = time.perf_counter() - t0
+    return result.tracks, specs[0].name, track_s, decode_seconds(video, fps)
+
+
 def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
     """Track one clip, print its figures, and return those a later line compares
     across clips (a drag fall's terminal speed, ours and the peer's, m/s)."""
@@ -274,13 +286,7 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
               f"(mean |difference| {_same_pixels(video, other, clip)})")
         video, fps = other, None
         clicks = {clip.first + clip.step * k: xy for k, xy in clicks.items()}
-    specs = parse_markers([clip.marker])
-    t0 = time.perf_counter()
-    result = track(open_frames(video, fps), specs)
-    track_s = time.perf_counter() - t0
-    decode_s = decode_seconds(video, fps)
-    tab = result.tracks
-    name = specs[0].name
+    tab, name, track_s, decode_s = timed_track(video, fps, clip.marker)
     peer_frames = np.array(sorted(clicks))
     rows = tab.set_index("frame").loc[peer_frames]
     ok = rows[f"{name}_ok"].to_numpy(bool)
@@ -408,13 +414,7 @@ def run_pendulum(repo: Path) -> None:
     if video is None:
         print(f"\n{name}: not in {repo}; skipped")
         return
-    specs = parse_markers([marker])
-    t0 = time.perf_counter()
-    result = track(open_frames(video, None), specs)
-    track_s = time.perf_counter() - t0
-    decode_s = decode_seconds(video, None)
-    tab = result.tracks
-    bob = specs[0].name
+    tab, bob, track_s, decode_s = timed_track(video, None, marker)
     ok = tab[f"{bob}_ok"].to_numpy(bool)
     print(f"\n{name} (a pendulum, {len(tab)} frames, {tab['t_s'].iloc[-1]:.1f} s): "
           f"`--marker {marker}`")
