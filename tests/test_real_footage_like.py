@@ -580,3 +580,31 @@ def test_a_ball_at_rest_that_is_thrown_is_followed_from_its_first_move():
                      t_s=k / 30).loc[0]
         assert row["status"] == "ok", (k, row)
         assert abs(row["x_px"] - x) < 0.2, (k, row)
+
+
+def test_footage_that_repeats_pictures_keeps_an_honest_sigma_and_says_so(tmp_path):
+    # A 20 fps recording stored at 30 fps shows every third picture twice (Tracker's
+    # jmoljana clip). Read as noise, those stairs raised σ to 0.47 px there, where a
+    # point a period later agreed to 0.12. The drawn disc's centre is known exactly.
+    import cv2
+
+    from cranktrack.tracker.scatter import scatter_sigma
+    from cranktrack.tracker.track import track
+    from cranktrack.tracker.video import open_frames
+
+    shown = np.arange(60) * 2 // 3  # the picture each frame shows: 0 0 1 2 2 3 …
+    centre = [(80 + 40 * np.cos(0.1 * k), 60 + 40 * np.sin(0.1 * k)) for k in range(40)]
+    pictures = {}
+    for i, k in enumerate(shown):
+        if k not in pictures:
+            pictures[k] = draw([(*centre[k], 6.0, (220.0, 40.0, 40.0))], size=(160, 120),
+                               background=(150.0, 150.0, 145.0), seed=int(k))
+        cv2.imwrite(str(tmp_path / f"{i:03d}.png"), pictures[k][..., ::-1])
+    result = track(open_frames(tmp_path, 30.0), parse_markers(["dot=red"]))
+    tab = result.tracks
+    xy = tab[["dot_x_px", "dot_y_px"]].to_numpy(float)
+    error = np.sqrt(np.mean((xy - np.array([centre[k] for k in shown])) ** 2))
+    sigma = float(tab["dot_sigma_px"].median())
+    assert np.nanmedian(scatter_sigma(xy)) > 20 * error  # the stairs, read as noise
+    assert 0.3 * error < sigma < 3 * error, (sigma, error)
+    assert any("moves in stairs" in p for p in result.problems), result.problems

@@ -38,7 +38,7 @@ from .markers import (
 )
 from .outline import shaded
 from .refine import patch_around, refine, refine_blob
-from .scatter import with_scatter_floor
+from .scatter import repeated_frames, with_scatter_floor
 from .search import (
     full_frame_blob,
     full_hsv,
@@ -515,6 +515,32 @@ def locate(frame: Frame | NDArray[np.uint8], markers: Sequence[MarkerSpec] = DEF
     return pd.DataFrame(rows, columns=["marker", "x_px", "y_px", "sigma_px", "ok", "status"])
 
 
+#: The fraction of its found frames in which a marker repeats the picture before, from
+#: which a run warns that the footage repeats pictures.
+STAIRS_WARN = 0.05
+
+
+def stair_notes(tracks: pd.DataFrame, specs: tuple[MarkerSpec, ...]) -> list[str]:
+    """A sentence for each marker whose track moves in stairs
+    (:func:`.scatter.repeated_frames` in at least :data:`STAIRS_WARN` of its found
+    frames, and at least 3)."""
+    notes = []
+    for s in specs:
+        ok = tracks[s.name + "_ok"].to_numpy(bool)
+        xy = tracks[[s.name + "_x_px", s.name + "_y_px"]].to_numpy(float, copy=True)
+        xy[~ok] = np.nan
+        frames = tracks["frame"].to_numpy()[repeated_frames(xy)]
+        if len(frames) >= max(3, STAIRS_WARN * ok.sum()):
+            shown = ", ".join(str(f) for f in frames[:4])
+            notes.append(
+                f"{s.name} moves in stairs: in {len(frames)} frames ({shown}, …) it all but "
+                "stops between two frames in which it moves on. Footage converted from a "
+                "lower frame rate repeats pictures like this; their timestamps are not when "
+                "they were taken, so rates across them are rough. The σ floor is read "
+                "without them")
+    return notes
+
+
 def tracks_table(rows: list[list], specs: tuple[MarkerSpec, ...],
                  radii: dict[str, float | None] | None = None) -> pd.DataFrame:
     """The tracks table from finished rows.
@@ -629,6 +655,6 @@ def track(
                               "hue_tol_deg": round(st.spec.hue_tol_deg, 2),
                               "radius_px": None if st.radius is None else round(st.radius, 3)}
                for st in state.markers}
-    notes = [n for st in state.markers for n in st.notes]
+    notes = [n for st in state.markers for n in st.notes] + stair_notes(tracks, specs)
     return TrackResult(tracks, timing_report(tracks["t_s"].to_numpy(), source.nominal_fps),
                        found, list(source.problems) + notes, learned, state)
