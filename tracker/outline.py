@@ -85,9 +85,16 @@ def middle_peak(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float
     0.7·``radius`` of ``centre`` (image px); NaN with fewer than 3 pixels there."""
     inner = (_distance2(*alpha.shape, centre[0] - x0, centre[1] - y0)
              <= (0.7 * radius) ** 2) & np.isfinite(alpha)
-    if inner.sum() < 3:
+    values = alpha[inner]
+    if values.size < 3:
         return float("nan")
-    return float(np.percentile(alpha[inner], 90))
+    # np.percentile's linear 90th, from a partial sort: the whole call cost an eighth
+    # of a rim fit.
+    at = 0.9 * (values.size - 1)
+    lo = int(at)
+    hi = min(lo + 1, values.size - 1)
+    part = np.partition(values, (lo, hi))
+    return float(part[lo] + (part[hi] - part[lo]) * (at - lo))
 
 
 def rim_points(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float],
