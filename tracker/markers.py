@@ -29,9 +29,41 @@ COLOUR_HUES_DEG = {
 
 #: How much brighter (darker) than its surroundings a white (black) marker is, DN.
 TONE_CONTRAST_DN = 40
-#: The surroundings a luminance marker is compared with: a disc wider than any marker
-#: (a 31 px one leaves the marker standing out; a wider background is taken away).
+#: The surroundings a luminance marker is compared with: a disc wider than the marker
+#: (it leaves the marker standing out; a wider background is taken away), 31 px.
 _TONE_KERNEL = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (31, 31))
+#: A marker too wide for that disc is found a second time on the frame halved, where
+#: the same disc is 62 px across; of that pass only blobs at least this wide (px) are
+#: kept. The halved pass alone moved small blobs' edges (a falling paper cup 8×3 px
+#: was then lost in a frame); without it a diabolo 40 px across (Tracker's Diabolo
+#: clip) was taken away as background and found in 1 of 410 frames.
+TONE_WIDE_PX = 24
+
+
+def _tone_contrast(value: NDArray[np.uint8], brighter: bool, halved: bool = False
+                   ) -> NDArray[np.uint8]:
+    """How much brighter (``brighter``) or darker than its surroundings each pixel of a
+    value image is, DN: a top-hat (black-hat) with :data:`_TONE_KERNEL`, whose
+    opening (closing) is taken on the image ``halved`` and brought back to size."""
+    op = cv2.MORPH_OPEN if brighter else cv2.MORPH_CLOSE
+    if halved:
+        h, w = value.shape
+        small = cv2.resize(value, (max(w // 2, 1), max(h // 2, 1)),
+                           interpolation=cv2.INTER_AREA)
+        around = cv2.resize(cv2.morphologyEx(small, op, _TONE_KERNEL), (w, h),
+                            interpolation=cv2.INTER_LINEAR)
+    else:
+        around = cv2.morphologyEx(value, op, _TONE_KERNEL)
+    return cv2.subtract(value, around) if brighter else cv2.subtract(around, value)
+
+
+def _wide(mask: NDArray[np.uint8]) -> NDArray[np.uint8]:
+    """The parts of a mask whose box is at least :data:`TONE_WIDE_PX` on its shorter side."""
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    keep = np.zeros(n, np.uint8)
+    keep[1:] = np.minimum(stats[1:, cv2.CC_STAT_WIDTH], stats[1:, cv2.CC_STAT_HEIGHT]) \
+        >= TONE_WIDE_PX
+    return keep[labels] * 255
 
 
 @dataclass(frozen=True)
@@ -107,16 +139,22 @@ class MarkerSpec:
         """Pixels of this colour (255) in an OpenCV 8-bit HSV image."""
         if self.tone:
             value = np.ascontiguousarray(hsv[..., 2])
-            if self.tone == "grey":
-                # Neither white nor black: standing out from its surroundings either
-                # way (a grey disc on a white board, or on a dark floor).
-                contrast = np.maximum(cv2.morphologyEx(value, cv2.MORPH_TOPHAT, _TONE_KERNEL),
-                                      cv2.morphologyEx(value, cv2.MORPH_BLACKHAT, _TONE_KERNEL))
-            else:
-                op = cv2.MORPH_TOPHAT if self.tone == "white" else cv2.MORPH_BLACKHAT
-                contrast = cv2.morphologyEx(value, op, _TONE_KERNEL)
             grey = hsv[..., 1] <= round(self.min_saturation * 255)
-            return ((contrast >= TONE_CONTRAST_DN) & grey).astype(np.uint8) * 255
+
+            def standing_out(halved: bool) -> NDArray[np.uint8]:
+                if self.tone == "grey":
+                    # Neither white nor black: standing out from its surroundings either
+                    # way (a grey disc on a white board, or on a dark floor).
+                    contrast = np.maximum(_tone_contrast(value, True, halved),
+                                          _tone_contrast(value, False, halved))
+                else:
+                    contrast = _tone_contrast(value, self.tone == "white", halved)
+                return ((contrast >= TONE_CONTRAST_DN) & grey).astype(np.uint8) * 255
+
+            mask = standing_out(False)
+            if min(value.shape) >= TONE_WIDE_PX:
+                mask |= _wide(standing_out(True))
+            return mask
         s_min = round(self.min_saturation * 255)
         v_min = round(self.min_value * 255)
         lo = (self.hue_deg - self.hue_tol_deg) / 2.0  # OpenCV hue units (2°)
