@@ -31,7 +31,7 @@ def compile_kernels() -> list[str]:
     from .models.spool import crank_friction
     from .synthetic.scenarios import SpoolScenario
     from .synthetic.scene import RenderSettings, render_scene
-    from .tracker.outline import fit_circle, rim_points
+    from .tracker.outline import fit_outline, rim_coverage
     from .tracker.track import track
     from .tracker.video import open_frames
 
@@ -46,9 +46,10 @@ def compile_kernels() -> list[str]:
             track(open_frames(files.video))
             done.append(f"track ({'lossless RGB' if lossless else 'H.264 4:2:0'})")
     # A shaded ball is centred by its rim, whose kernels the flat markers above skip.
-    ring = np.linspace(0.0, 2.0 * np.pi, 24, endpoint=False)
-    fit_circle(np.column_stack([20 + 8 * np.cos(ring), 20 + 8 * np.sin(ring)]))
-    rim_points(np.ones((40, 40)), 0.0, 0.0, (20.0, 20.0), 8.0, 24)
+    yy, xx = np.mgrid[0:40, 0:40]
+    ball = (np.hypot(xx - 20.0, yy - 20.0) < 8.0)[..., None] * np.array([200.0, 40.0, 40.0])
+    alpha, _ = rim_coverage(ball + 20.0, 0.0, 0.0, (20.0, 20.0), 8.0)
+    fit_outline(alpha, 0.0, 0.0, (20.0, 20.0), 8.0)
     done.append("rim of a ball")
     t = np.linspace(0.0, 1.0, 11)
     free_response(CrankDynamics(coulomb=0.1), t, 0.3)

@@ -621,3 +621,21 @@ def test_a_white_ball_wider_than_the_surroundings_disc_is_found():
         row = locate(image, state=state, t_s=k / 30).loc[0]
         assert row["status"] == "ok", (k, row["status"])
         assert np.hypot(row["x_px"] - x, row["y_px"] - y) < 0.3, (k, row)
+
+
+@pytest.mark.parametrize("guess", [(300.0, 50.0), (-40.0, -30.0), (60.0, 400.0)])
+def test_a_centre_sought_off_the_frame_fails_quietly(guess):
+    # A coverage centroid pulled by a wide white area walked off a frame of OpenCV's
+    # vtest.avi, and the next patch around it had negative size: the run died with a
+    # traceback. Off the frame, nothing is found.
+    import cv2
+
+    from cranktrack.tracker.refine import refine, refine_blob
+    from cranktrack.tracker.video import Frame
+
+    rgb = draw([(60.0, 45.0, 6.0, WHITE)], size=(120, 88))
+    # As a decoder gives it: 4:2:0 planes, converted to RGB region by region.
+    frame = Frame(0, 0.0, cv2.cvtColor(rgb, cv2.COLOR_RGB2YUV_I420), "i420", False)
+    for image in (rgb, frame):
+        assert not refine_blob(image, guess, 2.0, 5.0, 3.0, None, True)[0].ok
+        assert not refine(image, guess, 6.0, luminance=True)[0].ok

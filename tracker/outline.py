@@ -59,42 +59,93 @@ def rim_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, 
     :func:`.coverage.local_coverage` gives it), for following slow colour drift.
     """
     basis = LUMA_BASIS if luminance else CHROMA_BASIS.astype(np.float64)
-    P = np.asarray(patch_rgb, np.float64) @ basis.T
-    rho2 = _distance2(P.shape[0], P.shape[1], centre[0] - x0, centre[1] - y0)
-    ring = (rho2 >= (radius + 3) ** 2) & (rho2 <= (radius + 5) ** 2)
-    middle = rho2 <= (0.6 * radius) ** 2
-    h, w = P.shape[:2]
-    seen = np.median(P[middle], axis=0) if middle.sum() >= 3 else P[h // 2, w // 2]
-    if ring.sum() < 8 or middle.sum() < 3:
-        return np.full((h, w), np.nan), seen
-    b = np.median(P[ring], axis=0)
-    m = np.asarray(marker, np.float64) if marker is not None else seen
-    d = m - b
-    return (P - b) @ d / max(float(d @ d), 1e-6), seen
+    given = np.empty(0) if marker is None else np.asarray(marker, np.float64)
+    return _rim_coverage(np.ascontiguousarray(patch_rgb, np.float64), basis,
+                         centre[0] - x0, centre[1] - y0, float(radius), given)
 
 
-def _distance2(h: int, w: int, cx: float, cy: float) -> NDArray[np.float64]:
-    """Squared distance (px²) of each pixel of an h×w patch from (cx, cy), patch px."""
-    yy, xx = np.ogrid[0:h, 0:w]
-    return (xx - cx) ** 2 + (yy - cy) ** 2
+@njit(cache=True, nogil=True)
+def _rim_coverage(patch: NDArray, basis: NDArray, cx: float, cy: float, radius: float,
+                  marker: NDArray) -> tuple[NDArray, NDArray]:
+    """:func:`rim_coverage` on a patch (centre in patch px; ``marker`` empty when not
+    known). Compiled: in NumPy its many small steps cost a third of a large ball's
+    rim fit, more than decoding the frame."""
+    h, w = patch.shape[0], patch.shape[1]
+    k = basis.shape[0]
+    P = np.empty((h, w, k))
+    ring_n = 0
+    middle_n = 0
+    inner2, outer2, mid2 = (radius + 3) ** 2, (radius + 5) ** 2, (0.6 * radius) ** 2
+    for i in range(h):
+        for j in range(w):
+            for c in range(k):
+                P[i, j, c] = (patch[i, j, 0] * basis[c, 0] + patch[i, j, 1] * basis[c, 1]
+                              + patch[i, j, 2] * basis[c, 2])
+            r2 = (j - cx) ** 2 + (i - cy) ** 2
+            if inner2 <= r2 <= outer2:
+                ring_n += 1
+            if r2 <= mid2:
+                middle_n += 1
+    ring = np.empty((k, ring_n))
+    middle = np.empty((k, middle_n))
+    a = 0
+    b = 0
+    for i in range(h):
+        for j in range(w):
+            r2 = (j - cx) ** 2 + (i - cy) ** 2
+            if inner2 <= r2 <= outer2:
+                for c in range(k):
+                    ring[c, a] = P[i, j, c]
+                a += 1
+            if r2 <= mid2:
+                for c in range(k):
+                    middle[c, b] = P[i, j, c]
+                b += 1
+    seen = np.empty(k)
+    for c in range(k):
+        seen[c] = np.median(middle[c]) if middle_n >= 3 else P[h // 2, w // 2, c]
+    alpha = np.full((h, w), np.nan)
+    if ring_n < 8 or middle_n < 3:
+        return alpha, seen
+    back = np.empty(k)
+    for c in range(k):
+        back[c] = np.median(ring[c])
+    m = marker if marker.size == k else seen
+    d = m - back
+    dd = max(np.sum(d * d), 1e-6)
+    for i in range(h):
+        for j in range(w):
+            v = 0.0
+            for c in range(k):
+                v += (P[i, j, c] - back[c]) * d[c]
+            alpha[i, j] = v / dd
+    return alpha, seen
 
 
 def middle_peak(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float],
                 radius: float) -> float:
     """The coverage in a marker's middle: the 90th percentile of α within
     0.7·``radius`` of ``centre`` (image px); NaN with fewer than 3 pixels there."""
-    inner = (_distance2(*alpha.shape, centre[0] - x0, centre[1] - y0)
-             <= (0.7 * radius) ** 2) & np.isfinite(alpha)
-    values = alpha[inner]
-    if values.size < 3:
-        return float("nan")
-    # np.percentile's linear 90th, from a partial sort: the whole call cost an eighth
-    # of a rim fit.
-    at = 0.9 * (values.size - 1)
-    lo = int(at)
-    hi = min(lo + 1, values.size - 1)
-    part = np.partition(values, (lo, hi))
-    return float(part[lo] + (part[hi] - part[lo]) * (at - lo))
+    return _quantile_within(alpha, centre[0] - x0, centre[1] - y0, 0.7 * radius, 0.9, 3)
+
+
+@njit(cache=True, nogil=True)
+def _quantile_within(alpha: NDArray, cx: float, cy: float, reach: float, q: float,
+                     fewest: int) -> float:
+    """The ``q`` quantile (linear, as np.quantile) of the finite α within ``reach`` px of
+    (cx, cy) (patch px); NaN with fewer than ``fewest`` values. Compiled: the masks and
+    the sort in NumPy cost a fifth of a large ball's rim fit."""
+    h, w = alpha.shape
+    values = np.empty(h * w)
+    n = 0
+    for i in range(h):
+        for j in range(w):
+            if (j - cx) ** 2 + (i - cy) ** 2 <= reach * reach and np.isfinite(alpha[i, j]):
+                values[n] = alpha[i, j]
+                n += 1
+    if n < fewest:
+        return np.nan
+    return np.quantile(values[:n], q)
 
 
 def rim_points(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float],
@@ -331,9 +382,7 @@ def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float]
     moved = math.hypot(p[0] - guess[0], p[1] - guess[1])
     if not (np.isfinite(var) and var > 0 and moved < radius and 0.3 * radius < p[2] < 3 * radius):
         return failed
-    middle = (_distance2(*alpha.shape, p[0] - x0, p[1] - y0) <= (0.5 * p[2]) ** 2) \
-        & np.isfinite(alpha)
-    gain = float(np.median(alpha[middle])) if middle.any() else float("nan")
+    gain = _quantile_within(alpha, p[0] - x0, p[1] - y0, 0.5 * p[2], 0.5, 1)
     return Centre(float(p[0]), float(p[1]), float(math.sqrt(var)), float(p[2]), True,
                   float("nan"), gain, (float(p[0]), float(p[1]), float(p[2]), 0.5, 1.0, 0.0),
                   rim=True)

@@ -38,10 +38,12 @@ def patch_around(image: Frame | NDArray, cx: float, cy: float, half: float
            ) -> tuple[NDArray[np.uint8], int, int]:
     """The pixels within ``half`` px of (cx, cy), clipped to the image, and the
     patch's top-left pixel. ``image`` is a frame (converted to RGB only
-    there) or an array (RGB, HSV)."""
+    there) or an array (RGB, HSV). Around a point off the image the patch is
+    empty (a coverage centroid pulled by a wide bright area walked off a frame
+    of OpenCV's vtest.avi)."""
     w, h = image.size if isinstance(image, Frame) else (image.shape[1], image.shape[0])
-    x0, y0 = max(int(cx - half), 0), max(int(cy - half), 0)
-    x1, y1 = min(int(cx + half) + 1, w), min(int(cy + half) + 1, h)
+    x0, y0 = min(max(int(cx - half), 0), w), min(max(int(cy - half), 0), h)
+    x1, y1 = max(min(int(cx + half) + 1, w), x0), max(min(int(cy + half) + 1, h), y0)
     if isinstance(image, Frame):
         return image.region(x0, y0, x1, y1), x0, y0
     return image[y0:y1, x0:x1], x0, y0
