@@ -34,9 +34,10 @@ TONE_CONTRAST_DN = 40
 _TONE_KERNEL = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (31, 31))
 #: A marker too wide for that disc is found a second time on the frame halved, where
 #: the same disc is 62 px across; of that pass only blobs at least this wide (px) are
-#: kept. The halved pass alone moved small blobs' edges (a falling paper cup 8×3 px
-#: was then lost in a frame); without it a diabolo 40 px across (Tracker's Diabolo
-#: clip) was taken away as background and found in 1 of 410 frames.
+#: kept, as blobs of their own. The halved pass alone moved small blobs' edges (a
+#: falling paper cup 8×3 px was then lost in a frame); without it a diabolo 40 px
+#: across (Tracker's Diabolo clip) was taken away as background and found in 1 of
+#: 410 frames.
 TONE_WIDE_PX = 24
 
 
@@ -135,26 +136,32 @@ class MarkerSpec:
             raise CranktrackError(f"marker {name}'s hue {colour.strip()} is outside 0–360°")
         return cls(name, hue % 360.0)
 
+    def _standing_out(self, hsv: NDArray[np.uint8], halved: bool) -> NDArray[np.uint8]:
+        """A luminance marker's pixels (255): of little saturation, and standing out
+        from their surroundings by :data:`TONE_CONTRAST_DN` (:func:`_tone_contrast`)."""
+        value = np.ascontiguousarray(hsv[..., 2])
+        if self.tone == "grey":
+            # Neither white nor black: standing out from its surroundings either way
+            # (a grey disc on a white board, or on a dark floor).
+            contrast = np.maximum(_tone_contrast(value, True, halved),
+                                  _tone_contrast(value, False, halved))
+        else:
+            contrast = _tone_contrast(value, self.tone == "white", halved)
+        grey = hsv[..., 1] <= round(self.min_saturation * 255)
+        return ((contrast >= TONE_CONTRAST_DN) & grey).astype(np.uint8) * 255
+
+    def wide_mask(self, hsv: NDArray[np.uint8]) -> NDArray[np.uint8] | None:
+        """A luminance marker's pixels found on the image halved, in parts at least
+        :data:`TONE_WIDE_PX` wide; None for a colour marker or an image narrower
+        than that."""
+        if not self.tone or min(hsv.shape[:2]) < TONE_WIDE_PX:
+            return None
+        return _wide(self._standing_out(hsv, halved=True))
+
     def mask(self, hsv: NDArray[np.uint8]) -> NDArray[np.uint8]:
         """Pixels of this colour (255) in an OpenCV 8-bit HSV image."""
         if self.tone:
-            value = np.ascontiguousarray(hsv[..., 2])
-            grey = hsv[..., 1] <= round(self.min_saturation * 255)
-
-            def standing_out(halved: bool) -> NDArray[np.uint8]:
-                if self.tone == "grey":
-                    # Neither white nor black: standing out from its surroundings either
-                    # way (a grey disc on a white board, or on a dark floor).
-                    contrast = np.maximum(_tone_contrast(value, True, halved),
-                                          _tone_contrast(value, False, halved))
-                else:
-                    contrast = _tone_contrast(value, self.tone == "white", halved)
-                return ((contrast >= TONE_CONTRAST_DN) & grey).astype(np.uint8) * 255
-
-            mask = standing_out(False)
-            if min(value.shape) >= TONE_WIDE_PX:
-                mask |= _wide(standing_out(True))
-            return mask
+            return self._standing_out(hsv, halved=False)
         s_min = round(self.min_saturation * 255)
         v_min = round(self.min_value * 255)
         lo = (self.hue_deg - self.hue_tol_deg) / 2.0  # OpenCV hue units (2°)
@@ -277,9 +284,18 @@ def find_blobs(hsv: NDArray[np.uint8], spec: MarkerSpec, x0: int = 0, y0: int = 
     A blob that is not disc-like but holds a disc that fills most of it (a ball on
     a stalk of its own colour, a bead on its string) is given as that disc: the
     largest circle inside it, by the distance transform (centre to the pixel,
-    radius to a pixel or so), for the refinement to take from there.
+    radius to a pixel or so), for the refinement to take from there. A luminance
+    marker's blobs too wide for its surroundings' disc (:meth:`MarkerSpec.wide_mask`)
+    are added as blobs of their own: merged into the first mask, a white sign's
+    blob took in the air conditioners beside it and was too big to be the sign.
     """
-    mask = spec.mask(hsv)
+    blobs = _blobs(spec.mask(hsv), spec, x0, y0)
+    wide = spec.wide_mask(hsv)
+    return blobs if wide is None else blobs + _blobs(wide, spec, x0, y0)
+
+
+def _blobs(mask: NDArray[np.uint8], spec: MarkerSpec, x0: int, y0: int) -> list[Blob]:
+    """The blobs of one mask (:func:`find_blobs`)."""
     # Labelling costs 0.7 ms on a 640×480 frame even where the colour is nowhere, and
     # a lost marker's colour is looked for in whole frames: only the box around the
     # colour's pixels is labelled. A pixel of margin where the image goes on keeps a
