@@ -659,3 +659,20 @@ def test_a_small_white_marker_beside_a_wide_white_area_keeps_its_own_blob():
         row = locate(image, state=state, t_s=k / 30).loc[0]
         assert row["status"] == "ok", (k, row["status"])
         assert np.hypot(row["x_px"] - 60.0, row["y_px"] - 45.0) < 0.3, (k, row)
+
+
+def test_a_marker_of_mixed_hues_learns_no_window_wider_than_asked():
+    # An orange road cone with a red reflector and grey tape across its middle
+    # (OpenCV's vtest.avi) learned a hue window of ±140°, which took in the grass; it
+    # was found in a third of the frames it was in view.
+    import cv2
+
+    from cranktrack.tracker.markers import learn_spec
+
+    rgb = draw([(30.0, 30.0, 10.0, (240.0, 140.0, 20.0)), (30.0, 30.0, 4.0, (210.0, 30.0, 40.0))],
+               background=(90.0, 120.0, 70.0), size=(60, 60))
+    rgb[27:33] = 150  # the grey tape: no hue of its own
+    hsv = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)
+    spec = learn_spec(parse_markers(["cone=orange"])[0], hsv, (30.0, 30.0), 10.0, 0, 0)
+    assert spec.hue_tol_deg <= 30.0, spec
+    assert abs((spec.hue_deg - 20.0 + 180.0) % 360.0 - 180.0) < 20.0, spec
