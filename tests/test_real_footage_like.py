@@ -676,3 +676,20 @@ def test_a_marker_of_mixed_hues_learns_no_window_wider_than_asked():
     spec = learn_spec(parse_markers(["cone=orange"])[0], hsv, (30.0, 30.0), 10.0, 0, 0)
     assert spec.hue_tol_deg <= 30.0, spec
     assert abs((spec.hue_deg - 20.0 + 180.0) % 360.0 - 180.0) < 20.0, spec
+
+
+def test_rivals_of_a_marker_are_counted_once_each_across_saturation_floors():
+    # A whole-frame search looks at three saturation floors, so each blob of the
+    # marker's colour is seen up to three times; the run says how many alike blobs
+    # there are. 20 equal yellow discs: the chosen one and 19 rivals, once each.
+    import cv2
+
+    from cranktrack.tracker.markers import acquire
+
+    discs = [(20.0 + 30 * i, 20.0 + 30 * j, 5.0, (230.0, 220.0, 30.0))
+             for i in range(5) for j in range(4)]
+    rgb = draw(discs, background=(60.0, 60.0, 60.0), size=(160, 120))
+    blob, status, rivals = acquire(cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV),
+                                   parse_markers(["dot=yellow"])[0])
+    assert status == "ok" and blob is not None and len(rivals) == 19
+    assert len({(round(r.x), round(r.y)) for r in rivals}) == 19
