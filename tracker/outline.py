@@ -69,7 +69,7 @@ def _rim_coverage(patch: NDArray, basis: NDArray, cx: float, cy: float, radius: 
                   marker: NDArray) -> tuple[NDArray, NDArray]:
     """:func:`rim_coverage` on a patch (centre in patch px; ``marker`` empty when not
     known). Compiled: in NumPy its many small steps cost a third of a large ball's
-    rim fit, more than decoding the frame."""
+    rim fit."""
     h, w = patch.shape[0], patch.shape[1]
     k = basis.shape[0]
     P = np.empty((h, w, k))
@@ -282,10 +282,10 @@ def fit_circle(points: NDArray, iterations: int = 20, start: NDArray | None = No
     The least-median circle through triples of points starts it (a quarter of
     the rays running up a stalk would pull any least-squares start off by a
     pixel, and the reweighting then crawls back), unless ``start`` (cx, cy, R)
-    is given: a circle already fitted to nearly the same rim. Gauss–Newton steps on the geometric
-    distance, each reweighted by Tukey's biweight of the residual over
-    1.4826·MAD (at least :data:`MIN_SCALE_PX`), follow. The covariance is
-    s²·(JᵀWJ)⁻¹ with s² the weighted residual variance.
+    is given: a circle already fitted to nearly the same rim. Gauss–Newton
+    steps on the geometric distance, each reweighted by Tukey's biweight of the
+    residual over 1.4826·MAD (at least :data:`MIN_SCALE_PX`), follow. The
+    covariance is s²·(JᵀWJ)⁻¹ with s² the weighted residual variance.
     """
     x = np.ascontiguousarray(points[:, 0], np.float64)
     y = np.ascontiguousarray(points[:, 1], np.float64)
@@ -352,8 +352,8 @@ def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float]
     centre when that is :data:`RECAST_PX` or more away. ``radius`` is the
     expected marker radius, px. The result is not ``ok`` when fewer than
     :data:`MIN_POINTS` rim points (or :data:`MIN_FRACTION` of the rays) keep
-    weight, when the centre moved
-    more than ``radius`` or the fitted radius is outside 0.3–3× ``radius``.
+    weight, when the centre moved more than ``radius`` or the fitted radius is
+    outside 0.3–3× ``radius``.
     The returned gain is the median coverage within half the fitted radius
     (≈ 1 for a whole flat marker of the learned colour); ``rms_residual`` is
     NaN, since a rim residual (px) is not comparable to a disc fit's (α).
