@@ -420,12 +420,16 @@ def compare_drag(falls: dict[Clip, dict[str, float]]) -> None:
 PENDULUM = ("pendulum.mp4", "bob=red", 1.7)
 
 
-def red_centroids(video: Path, near: NDArray, half: int = 35) -> NDArray:
-    """Per frame, the centroid (px) of max(R − max(G, B) − 30, 0) within ``half`` px of
-    ``near`` (n, 2) px: a red bob's centre by a method that shares nothing with the
-    tracker's fits."""
+def red_centroids(video: Path, frames: NDArray, near: NDArray, half: int = 35) -> NDArray:
+    """In each of ``frames`` (indices), the centroid (px) of max(R − max(G, B) − 30, 0)
+    within ``half`` px of ``near`` (n, 2) px: a red bob's centre by a method that shares
+    nothing with the tracker's fits."""
+    where = dict(zip(frames.tolist(), near, strict=True))
     out = []
-    for frame, (x, y) in zip(open_frames(video, None).frames(), near, strict=True):
+    for frame in open_frames(video, None).frames():
+        if frame.index not in where:
+            continue
+        x, y = where[frame.index]
         rgb = frame.rgb.astype(float)
         i0, j0 = max(round(y) - half, 0), max(round(x) - half, 0)
         patch = rgb[i0:round(y) + half + 1, j0:round(x) + half + 1]
@@ -467,7 +471,7 @@ def run_pendulum(repo: Path) -> None:
     # A second centre made apart from the tracker: the centroid of how much redder than
     # green and blue each pixel near our fix is. Where its residual against the same
     # swing matches ours, what is left is in the swing, not in either centre.
-    other = red_centroids(video, xy)
+    other = red_centroids(video, tab["frame"].to_numpy()[ok], xy)
     r2 = sphere_swing(t, other, (source.width, source.height), length_m, period_guess).residual
     shared = [float(np.corrcoef(r[:, i], r2[:, i])[0, 1]) for i in range(2)]
     print(f"  a second centre (the centroid of the bob's redness, made in this bench) leaves "
