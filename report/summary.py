@@ -22,7 +22,7 @@ from ..run_folder import (
     TRACKS,
     RunFolder,
 )
-from ..tracker.scatter import at_rest
+from ..tracker.scatter import at_rest, found_xy
 
 PANELS = (("theta_deg", "θ (deg)"), ("omega_rad_s", "ω (rad/s)"), ("vB_mm_s", "|v_B| (mm/s)"))
 
@@ -59,10 +59,7 @@ def _rest_checks(tracks: pd.DataFrame) -> list[str]:
     scatter, and σ (0.026 px) covers both."""
     lines = []
     for m in [c[:-3] for c in tracks.columns if c.endswith("_ok")]:
-        ok = tracks[f"{m}_ok"].astype(bool).to_numpy()
-        xy = tracks[[f"{m}_x_px", f"{m}_y_px"]].to_numpy(float, copy=True)
-        xy[~ok] = np.nan
-        check = at_rest(xy, tracks[f"{m}_sigma_px"].to_numpy(float))
+        check = at_rest(found_xy(tracks, m), tracks[f"{m}_sigma_px"].to_numpy(float))
         if check is not None:
             lines.append(
                 f"- {m} stood still ({check.frames} frames): it scatters by "

@@ -149,7 +149,7 @@ def _quantile_within(alpha: NDArray, cx: float, cy: float, reach: float, q: floa
 
 
 def rim_points(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float],
-               radius: float, rays: int, peak: float | None = None) -> NDArray[np.float64]:
+               radius: float, rays: int, peak: float) -> NDArray[np.float64]:
     """Where each of ``rays`` rays from ``centre`` crosses the marker's rim.
 
     Each ray is sampled every 0.25 px out to where α stops being defined. The
@@ -159,13 +159,11 @@ def rim_points(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float]
     ball's dark side falls from little coverage to none, its highlight dips
     inside: a fixed level would put the rim inside on one and at the dip on
     the other, the steepest fall does not. The place is the drop-weighted mean
-    over ±1 px around that fall. ``peak`` is that middle's coverage when already
-    known (:func:`middle_peak`). Returns (k, 2) image px; rays with no such fall
-    are left out.
+    over ±1 px around that fall. ``peak`` is that middle's coverage
+    (:func:`middle_peak`). Returns (k, 2) image px; rays with no such fall are
+    left out.
     """
     cx, cy = centre[0] - x0, centre[1] - y0
-    if peak is None:
-        peak = middle_peak(alpha, x0, y0, centre, radius)
     if not peak > 0.1:
         return np.empty((0, 2))
     half = 4  # samples in 1 px

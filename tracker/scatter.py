@@ -40,6 +40,14 @@ WINDOW_FRAMES = 31
 ORDERS: tuple[int, ...] = (2, 3, 4, 5, 6)
 
 
+def found_xy(tracks: pd.DataFrame, name: str) -> NDArray[np.float64]:
+    """Marker ``name``'s positions from a tracks table, (n, 2) px, NaN where it was not
+    found: what this module's functions take."""
+    xy = tracks[[f"{name}_x_px", f"{name}_y_px"]].to_numpy(float, copy=True)
+    xy[~tracks[f"{name}_ok"].astype(bool).to_numpy()] = np.nan
+    return xy
+
+
 def scatter_sigma(xy: NDArray[np.floating], window: int = WINDOW_FRAMES,
                   orders: tuple[int, ...] = ORDERS) -> NDArray[np.float64]:
     """Per-frame 1-σ (px, per axis) of the frame-to-frame scatter of a track.

@@ -38,7 +38,7 @@ from .markers import (
 )
 from .outline import shaded
 from .refine import patch_around, refine, refine_blob
-from .scatter import repeated_frames, with_scatter_floor
+from .scatter import found_xy, repeated_frames, with_scatter_floor
 from .search import (
     full_frame_blob,
     full_hsv,
@@ -526,11 +526,8 @@ def stair_notes(tracks: pd.DataFrame, specs: tuple[MarkerSpec, ...]) -> list[str
     frames, and at least 3)."""
     notes = []
     for s in specs:
-        ok = tracks[s.name + "_ok"].to_numpy(bool)
-        xy = tracks[[s.name + "_x_px", s.name + "_y_px"]].to_numpy(float, copy=True)
-        xy[~ok] = np.nan
-        frames = tracks["frame"].to_numpy()[repeated_frames(xy)]
-        if len(frames) >= max(3, STAIRS_WARN * ok.sum()):
+        frames = tracks["frame"].to_numpy()[repeated_frames(found_xy(tracks, s.name))]
+        if len(frames) >= max(3, STAIRS_WARN * tracks[s.name + "_ok"].sum()):
             shown = ", ".join(str(f) for f in frames[:4])
             notes.append(
                 f"{s.name} moves in stairs: in {len(frames)} frames ({shown}, …) it all but "
@@ -556,9 +553,8 @@ def tracks_table(rows: list[list], specs: tuple[MarkerSpec, ...],
     tracks["frame"] = tracks["frame"].astype(int)
     for s in specs:
         ok = tracks[s.name + "_ok"].astype(bool).to_numpy()
-        xy = tracks[[s.name + "_x_px", s.name + "_y_px"]].to_numpy(float, copy=True)
-        xy[~ok] = np.nan
-        sigma = with_scatter_floor(tracks[s.name + "_sigma_px"].to_numpy(float), xy)
+        sigma = with_scatter_floor(tracks[s.name + "_sigma_px"].to_numpy(float),
+                                   found_xy(tracks, s.name))
         radius = (radii or {}).get(s.name)
         if radius is not None:
             lost = ok & ~(sigma < radius)
