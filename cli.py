@@ -306,27 +306,31 @@ def _span(start: tuple[float, str] | None, end: tuple[float, str] | None):
 
 def cmd_inspect(args: argparse.Namespace) -> int:
     from .report.survey import write_survey_png
-    from .tracker.survey import survey
+    from .tracker.survey import LATER_S, survey
     from .tracker.video import open_frames
 
     video = Path(args.video)
-    frame = None
+    frame = later = None
+    # A second frame a little later tells what moves: what people film markers for.
     for f in open_frames(video, fps=args.fps).frames():
-        frame = f
-        if f.t_s >= args.at:
+        if frame is None or frame.t_s < args.at:
+            frame = f
+        elif f.t_s >= frame.t_s + LATER_S:
+            later = f
             break
     if frame is None:
         raise CranktrackError(f"{video} has no frames")
-    table = survey(frame.rgb, most=args.most)
+    table = survey(frame.rgb, most=args.most, later=None if later is None else later.rgb)
     out = Path(args.out) if args.out else video.with_name(video.stem + "_inspect.png")
     write_survey_png(out, frame.rgb, table)
     if table.empty:
         print(f"no compact blob of one colour, white or black in frame {frame.index} "
               f"(t = {frame.t_s:.3f} s); try another --at")
     else:
-        rows = [["--marker", "colour", "x px", "y px", "radius px", "shape"]]
+        rows = [["--marker", "colour", "x px", "y px", "radius px", "shape", "moves"]]
         rows += [[r.marker, r["name"], f"{r.x_px:.0f}", f"{r.y_px:.0f}", f"{r.radius_px:.1f}",
-                  "disc" if r.disc_like and not r.strip else f"strip (aspect {r.aspect:.1f})"]
+                  "disc" if r.disc_like and not r.strip else f"strip (aspect {r.aspect:.1f})",
+                  "-" if later is None else ("yes" if r.moves else "no")]
                  for _, r in table.iterrows()]
         print(f"frame {frame.index} (t = {frame.t_s:.3f} s): {len(table)} candidate markers, "
               "most marker-like first")

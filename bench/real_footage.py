@@ -43,6 +43,7 @@ from common import CACHE
 from pendulum import G, plane_swing, sphere_swing
 
 from cranktrack.tracker.markers import parse_markers
+from cranktrack.tracker.survey import LATER_S, survey
 from cranktrack.tracker.track import track
 from cranktrack.tracker.video import open_frames
 from cranktrack.warmup import compile_kernels
@@ -270,6 +271,26 @@ def timed_track(video: Path, fps: float | None, marker: str
     return result.tracks, specs[0].name, track_s, decode_seconds(video, fps)
 
 
+def inspect_rank(video: Path, fps: float | None, frame: int, xy: tuple[float, float]
+                 ) -> tuple[int | None, int]:
+    """Where ``cranktrack inspect`` lists the object the peer clicked at ``xy`` in
+    ``frame`` (1 = first; None: not listed), and how many candidates it lists in all."""
+    src = open_frames(video, fps)
+    first = later = None
+    for f in src.frames():
+        if f.index == frame:
+            first = f
+        elif first is not None and f.t_s >= first.t_s + LATER_S:
+            later = f
+            break
+    if first is None:
+        return None, 0
+    table = survey(first.rgb, most=1000, later=None if later is None else later.rgb)
+    gap = np.hypot(table["x_px"] - xy[0], table["y_px"] - xy[1])
+    near = np.flatnonzero(gap <= np.maximum(table["radius_px"], 6.0) + 3.0)
+    return (int(near[0]) + 1 if len(near) else None), len(table)
+
+
 def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
     """Track one clip, print its figures, and return those a later line compares
     across clips (a drag fall's terminal speed, ours and the peer's, m/s)."""
@@ -300,6 +321,13 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
     print(f"  found in {ok.sum()} of the {len(peer_frames)} frames the peer clicked "
           f"({100 * ok.mean():.0f} %); statuses elsewhere: "
           f"{ {k: int(v) for k, v in rows.loc[~ok, f'{name}_status'].value_counts().items()} }")
+    # What a new user sees first: where `inspect` lists the object, in the frame in the
+    # middle of those the peer clicked (the peer's choice is the truth of which it is).
+    middle = int(peer_frames[len(peer_frames) // 2])
+    rank, listed = inspect_rank(video, fps, middle, clicks[middle])
+    print(f"  `inspect` at frame {middle} lists the object the peer clicked "
+          f"{'not at all' if rank is None else f'{rank}.'} of {listed} candidates "
+          "(it prints the first 12)")
     if ok.sum() < max(4, 0.25 * len(peer_frames)):
         print("  too few frames found to compare with the peer or the physics")
         print(f"  time: tracking {track_s:.2f} s, decoding alone {decode_s:.2f} s "

@@ -154,6 +154,34 @@ def test_inspect_lists_each_marker_with_a_marker_option_that_tracks_it(tmp_path,
     assert (tmp_path / "run" / "tracks.csv").exists()
 
 
+def test_inspect_puts_the_marker_that_moves_first_and_specks_last():
+    from cranktrack.tracker.survey import survey
+
+    def specks(image):
+        # Two specks of noise, 4×4 px less the corners: as round as 12 pixels can be
+        # (fill 0.75, aspect 1), rounder than a drawn disc's blob.
+        for x, y in ((200, 150), (30, 30)):
+            image[y:y + 4, x:x + 4] = (40.0, 170.0, 60.0)
+            image[[y, y, y + 3, y + 3], [x, x + 3, x, x + 3]] = (12.0, 12.0, 12.0)
+
+    # Still: a white and a green disc and the specks; a red disc of the same size
+    # moves 6 px between the two frames.
+    still = [(60.3, 90.6, 5.0, WHITE), (170.2, 60.4, 5.0, (40.0, 170.0, 60.0))]
+    red = (200.0, 40.0, 40.0)
+    first = draw([*still, (110.0, 120.0, 5.0, red)], seed=1, extra=specks)
+    later = draw([*still, (116.0, 120.0, 5.0, red)], seed=2, extra=specks)
+    table = survey(first, later=later)
+    top = table.iloc[0]
+    assert np.hypot(top.x_px - 110.0, top.y_px - 120.0) < 0.5 and top.moves
+    assert table["moves"].sum() == 1
+    # Without a later frame nothing is said to move; the specks still come after the
+    # discs, though rounder.
+    alone = survey(first)
+    assert not alone["moves"].any()
+    big = alone["radius_px"] > 3.0
+    assert len(alone) == 5 and big.sum() == 3 and big.iloc[:3].all()
+
+
 def test_two_markers_never_share_one_blob():
     # Two pucks given the same hue by hand, one of them out of the frame: both markers
     # would lock onto the one puck there is.

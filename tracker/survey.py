@@ -18,6 +18,14 @@ from .markers import COLOUR_HUES_DEG, MarkerSpec, balanced_hsv, find_blobs, whit
 #: Hues searched, 30° apart, each ±20°: every hue falls in at least one window.
 SURVEY_HUES_DEG = tuple(range(0, 360, 30))
 
+#: A blob within this distance (px) of one of its colour and size a little later
+#: has not moved (H.264 moves a still blob's centroid by a few tenths of a pixel).
+STILL_PX = 1.0
+
+#: The later frame compared to tell what moves, this many seconds on (s): long enough
+#: for a marker people film to move a pixel, short enough that it is still in view.
+LATER_S = 0.2
+
 
 def _colour_name(hue_deg: float) -> str:
     """The named colour nearest a hue (for the label only)."""
@@ -26,20 +34,8 @@ def _colour_name(hue_deg: float) -> str:
     return min(COLOUR_HUES_DEG, key=lambda k: gap(COLOUR_HUES_DEG[k]))
 
 
-def survey(rgb: NDArray[np.uint8], min_area_px: int = 12, most: int = 12) -> pd.DataFrame:
-    """Candidate markers in an RGB frame, the most marker-like first.
-
-    Returns a table with ``x_px``, ``y_px`` (blob centroid), ``radius_px`` (of a
-    disc of the same area), ``fill`` (area over its box; π/4 for a disc),
-    ``aspect``, ``strip`` (a strip or a square, centred by its coverage's centroid
-    when tracked), ``colour`` (``white``, ``black`` or the hue in degrees,
-    rounded), ``name`` (the nearest colour name, for people) and ``marker``: the
-    ``--marker`` value that follows it, e.g. ``m1=120@312,99``. Blobs found in
-    two overlapping hue windows are listed once; strips and streaks are kept
-    (the tracker follows them too) but a round blob of a marker's size ranks higher.
-    """
-    gains = white_balance_gains(rgb)
-    hsv = balanced_hsv(rgb, gains)
+def _blobs_table(hsv: NDArray[np.uint8], min_area_px: int) -> pd.DataFrame:
+    """Every blob of the survey's hue windows and tones in one HSV frame (unranked)."""
     rows = []
     specs = [MarkerSpec("", float(h), 20.0, min_area_px=min_area_px) for h in SURVEY_HUES_DEG]
     specs += [MarkerSpec.from_colour("", tone) for tone in ("white", "black")]
@@ -53,25 +49,76 @@ def survey(rgb: NDArray[np.uint8], min_area_px: int = 12, most: int = 12) -> pd.
                 colour, name = f"{spec.hue_deg:.0f}", _colour_name(spec.hue_deg)
             rows.append({"x_px": b.x, "y_px": b.y, "radius_px": b.radius, "area_px": b.area,
                          "fill": b.fill, "aspect": b.aspect, "colour": colour, "name": name,
-                         "disc_like": b.disc_like(), "strip": b.elongated()})
-    table = pd.DataFrame(rows, columns=["x_px", "y_px", "radius_px", "area_px", "fill",
-                                        "aspect", "colour", "name", "disc_like", "strip"])
+                         "disc_like": b.disc_like(), "cored": b.cored,
+                         "strip": b.elongated()})
+    return pd.DataFrame(rows, columns=["x_px", "y_px", "radius_px", "area_px", "fill",
+                                       "aspect", "colour", "name", "disc_like", "cored",
+                                       "strip"])
+
+
+def _moved(table: pd.DataFrame, later: pd.DataFrame) -> NDArray[np.bool_]:
+    """For each blob of ``table``, whether no blob of its colour and size lies within
+    :data:`STILL_PX` (or a tenth of its radius) of it in ``later``."""
+    moved = np.ones(len(table), dtype=bool)
+    for colour, rows in table.groupby("colour"):
+        there = later[later["colour"] == colour]
+        if there.empty:
+            continue
+        gap = np.hypot(rows["x_px"].to_numpy()[:, None] - there["x_px"].to_numpy()[None, :],
+                       rows["y_px"].to_numpy()[:, None] - there["y_px"].to_numpy()[None, :])
+        ratio = rows["radius_px"].to_numpy()[:, None] / there["radius_px"].to_numpy()[None, :]
+        same = (gap <= np.maximum(STILL_PX, 0.1 * rows["radius_px"].to_numpy())[:, None]) \
+            & (np.abs(np.log(ratio)) <= np.log(1.25))
+        moved[table.index.get_indexer(rows.index)] = ~same.any(axis=1)
+    return moved
+
+
+def survey(rgb: NDArray[np.uint8], min_area_px: int = 12, most: int = 12,
+           later: NDArray[np.uint8] | None = None) -> pd.DataFrame:
+    """Candidate markers in an RGB frame, the most marker-like first.
+
+    Returns a table with ``x_px``, ``y_px`` (blob centroid), ``radius_px`` (of a
+    disc of the same area), ``fill`` (area over its box; π/4 for a disc),
+    ``aspect``, ``strip`` (a strip or a square, centred by its coverage's centroid
+    when tracked), ``colour`` (``white``, ``black`` or the hue in degrees,
+    rounded), ``name`` (the nearest colour name, for people), ``moves`` (with
+    ``later``, a frame of the same clip a little later: the blob is not there
+    then, at its place and size; else False) and ``marker``: the ``--marker``
+    value that follows it, e.g. ``m1=120@312,99``. Blobs found in two overlapping
+    hue windows are listed once; strips and streaks are kept (the tracker follows
+    them too) but a round blob of a marker's size ranks higher, and among those one
+    that moves: what people film a marker for.
+    """
+    gains = white_balance_gains(rgb)
+    table = _blobs_table(balanced_hsv(rgb, gains), min_area_px)
     if table.empty:
-        return table.assign(marker=pd.Series(dtype=str))
-    # Most marker-like first: disc-like, of a marker's size (a hand or a sign is larger
-    # than 25 px in radius), then the roundest. One row per place: the same blob seen
-    # through two neighbouring hue windows is listed once.
+        return table.drop(columns="cored").assign(moves=pd.Series(dtype=bool),
+                                                  marker=pd.Series(dtype=str))
+    table["moves"] = (False if later is None else
+                      _moved(table, _blobs_table(balanced_hsv(later, gains), min_area_px)))
+    # Most marker-like first: disc-like and not a disc cut from a blob of another shape
+    # (grass and texture give many such cores, and their fill and aspect are a disc's
+    # by construction); of a marker's size: not larger than a hand or a sign (25 px in
+    # radius, or 3 % of the frame's height at 1080p), nor a speck of noise (2.5 px, or
+    # 0.6 % of the height), which on busy real frames outnumber the markers and are
+    # round by digitisation; moving; then the roundest. On Tracker's examples this
+    # put the ball a Tracker user clicked first (was 4th–7th), and the diabolo 1st–3rd
+    # when in flight (was 34th–39th). One row per place: the same blob seen through
+    # two neighbouring hue windows is listed once.
     table["roundness"] = (np.abs(table["fill"] - np.pi / 4)
                           + np.abs(np.log(table["aspect"].clip(lower=1e-3))))
-    table["too_big"] = table["radius_px"] > 25.0
-    table = table.sort_values(["disc_like", "too_big", "roundness"],
-                              ascending=[False, True, True])
+    table["plain_disc"] = table["disc_like"] & ~table["cored"]
+    table["too_big"] = table["radius_px"] > max(25.0, 0.03 * min(rgb.shape[:2]))
+    table["speck"] = table["radius_px"] < max(2.5, 0.006 * min(rgb.shape[:2]))
+    table = table.sort_values(["plain_disc", "too_big", "speck", "moves", "roundness"],
+                              ascending=[False, True, True, False, True])
     kept: list[int] = []
     for i, r in table.iterrows():
         if all(np.hypot(r.x_px - table.at[j, "x_px"], r.y_px - table.at[j, "y_px"])
                > max(r.radius_px, 2.0) for j in kept):
             kept.append(i)
-    table = table.loc[kept].head(most).drop(columns=["roundness", "too_big"])
+    table = table.loc[kept].head(most).drop(
+        columns=["roundness", "too_big", "plain_disc", "speck", "cored"])
     table = table.reset_index(drop=True)
     table["marker"] = [f"m{k + 1}={r.colour}@{r.x_px:.0f},{r.y_px:.0f}"
                        for k, r in table.iterrows()]
