@@ -33,6 +33,7 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
@@ -171,6 +172,56 @@ def peer_project(trz: Path, mass: str, which: str = ""
                 data = _props(item.find("object"))
                 clicks[frame] = (float(data["x"].text), float(data["y"].text))
     return video, fps, clicks, scale
+
+
+def tape_ends(trz: Path) -> NDArray | None:
+    """The ends (2, 2) px of the first tape measure in a project's ``.trk``, or None."""
+    folder = trz.with_suffix("")
+    for trk in folder.rglob("*.trk"):
+        for obj in ET.parse(trk).getroot().iter("object"):
+            if obj.get("class", "").endswith("TapeMeasure$FrameData"):
+                p = _props(obj)
+                return np.array([[float(p["x1"].text), float(p["y1"].text)],
+                                 [float(p["x2"].text), float(p["y2"].text)]])
+    return None
+
+
+def stick_divisions(video: Path, fps: float | None, ends: NDArray, per_m: int = 10
+                    ) -> tuple[float, int, float]:
+    """The scale (px per metre) of a metre stick read from its own divisions: the dark
+    gaps between its painted tenths, along the line through ``ends`` (px, where the
+    peer laid a tape on it) in the clip's median picture (a ball passing in front is
+    gone from it). Returns px/m, the number of gaps, and the RMS (px) of the gaps
+    about evenly spaced ones."""
+    grey = np.median([cv2.cvtColor(f.rgb, cv2.COLOR_RGB2GRAY) for f in
+                      open_frames(video, fps).frames()], axis=0).astype(np.float32)
+    along = ends[1] - ends[0]
+    length = float(np.hypot(*along))
+    unit, across = along / length, np.array([-along[1], along[0]]) / length
+    s = np.arange(-15.0, length + 15.0, 0.25)
+
+    def band(w: NDArray) -> NDArray:
+        pts = ends[0] + s[:, None, None] * unit + w[None, :, None] * across
+        return cv2.remap(grey, pts[..., 0].astype(np.float32),
+                         pts[..., 1].astype(np.float32), cv2.INTER_LINEAR)
+
+    # The tape need not lie on the stick's middle (on BallToss it is 8 px beside it):
+    # the profile is read along the brightest line parallel to it within 20 px.
+    offsets = np.arange(-20.0, 20.5, 1.0)
+    middle = offsets[int(np.argmax(np.median(band(offsets), axis=0)))]
+    profile = band(middle + np.arange(-3.0, 3.5, 1.0)).mean(axis=1)
+    # A gap is a dip of at least 20 DN below the paint on either side, within 3 px.
+    gaps = []
+    for i in range(12, len(profile) - 12):
+        if profile[i] == profile[i - 12:i + 13].min() and \
+                min(profile[i - 12:i].max(), profile[i + 1:i + 13].max()) - profile[i] > 20:
+            a, b, c = profile[i - 1:i + 2]
+            gaps.append(s[i] + 0.25 * 0.5 * (a - c) / (a - 2 * b + c))
+    gaps = np.array(gaps)
+    k = np.arange(len(gaps))
+    slope, icept = np.polyfit(k, gaps, 1)
+    rms = float(np.sqrt(np.mean((gaps - (slope * k + icept)) ** 2)))
+    return float(slope * per_m), len(gaps), rms
 
 
 def parabola_g(t: np.ndarray, xy: np.ndarray, px_per_m: float
@@ -357,6 +408,14 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
               "peer's clicks; residual RMS "
               f"{np.sqrt(np.mean(resid**2)):.2f} px ours, {np.sqrt(np.mean(resid_peer**2)):.2f} "
               f"px the peer's (scale {scale:.1f} px/m from the peer's metre stick)")
+        ends = tape_ends(trz)
+        if ends is not None:
+            # The scale again, from the stick's own tenths rather than the peer's tape.
+            per_m, n_gaps, gap_rms = stick_divisions(video, fps, ends)
+            print(f"  the stick's own divisions ({n_gaps} dark gaps between its tenths, "
+                  f"{gap_rms:.2f} px RMS from even spacing) give {per_m:.1f} px/m against "
+                  f"the peer's tape {scale:.1f}: g = {g_ours * scale / per_m:.3f} m/s² "
+                  f"({100 * (g_ours * scale / per_m / 9.80 - 1):+.1f} %)")
         print(f"  ±1σ coverage of our σ (median {np.median(sigma):.3f} px) against the "
               f"parabola: {100 * inside.mean():.0f} % of coordinates (aim 50–90 %)")
         # A residual that is smooth from frame to frame is the parabola's own error
