@@ -15,8 +15,8 @@ from ..files import write_text_atomic
 
 def survey_image(rgb: NDArray[np.uint8], table: pd.DataFrame) -> NDArray[np.uint8]:
     """The frame (RGB) with each blob of ``table`` (:func:`cranktrack.tracker.survey.survey`)
-    circled and labelled with its ``--marker`` value; disc-like ones in yellow, strips
-    and streaks in cyan."""
+    circled and labelled with its ``--marker`` value, its radius (px) and whether it
+    moves; disc-like ones in yellow, strips and streaks in cyan."""
     img = np.ascontiguousarray(rgb).copy()
     scale = max(img.shape[1] / 800.0, 0.4)
     for _, r in table.iterrows():
@@ -24,7 +24,7 @@ def survey_image(rgb: NDArray[np.uint8], table: pd.DataFrame) -> NDArray[np.uint
         centre = (round(r.x_px), round(r.y_px))
         cv2.circle(img, centre, round(r.radius_px * 1.6 + 3), colour, max(1, int(scale)),
                    cv2.LINE_AA)
-        label = f"{r.marker}  r{r.radius_px:.0f}"
+        label = f"{r.marker}  r{r.radius_px:.0f}" + ("  moves" if r.get("moves", False) else "")
         at = (centre[0] + int(r.radius_px * 1.6 + 6), centre[1] + 4)
         cv2.putText(img, label, at, cv2.FONT_HERSHEY_SIMPLEX, 0.45 * scale, (0, 0, 0),
                     max(2, int(3 * scale)), cv2.LINE_AA)
