@@ -333,6 +333,12 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
             kinematics, info = measure_kinematics(tracks, window_s=window_s,
                                                   scale_sigma=cal.scale_sigma)
             warnings += _link_warnings(info.links)
+            if info.repeated_frames:
+                warnings.append(
+                    f"{info.repeated_frames} frames repeat the picture before them (a marker "
+                    "all but stops between two frames in which it moves on); their rows of "
+                    f"{KINEMATICS} are empty, since their timestamps are not when their "
+                    "picture was taken")
             files["kinematics"] = write_csv_atomic(folder / KINEMATICS, kinematics)
         else:
             raise CranktrackError("kinematics need markers A, B and C; the run tracked only "

@@ -307,3 +307,35 @@ def test_the_direction_sigma_is_the_spread_of_the_direction_over_repeats():
     speed_ratio = (np.median([r["vB_mm_s_sigma"].to_numpy()[middle] for r in runs])
                    / np.std([r["vB_mm_s"].to_numpy()[middle] for r in runs]))
     assert 0.7 < speed_ratio < 1.5, speed_ratio
+
+
+def test_frames_that_repeat_the_picture_before_are_left_out_of_the_rates():
+    """A crank turning at a constant 2 rad/s (the truth: constant rotation), filmed by
+    a phone that writes the last picture again in about one frame of twenty: tracks
+    drawn as numbers, in px (4 px/mm) and mm, with 0.02 mm of noise."""
+    rng = np.random.default_rng(3)
+    n, fps, omega, px_per_mm = 150, 30.0, 2.0, 4.0
+    t = np.arange(n) / fps
+    again = np.zeros(n, dtype=bool)
+    again[rng.choice(np.arange(2, n - 2, 3), 8, replace=False)] = True  # never two in a row
+    shown = t - again / fps  # the picture before, shown again
+    angle = 0.3 + omega * shown
+    pts = {"A": np.zeros((n, 2)), "C": np.tile([160.0, 0.0], (n, 1)),
+           "B": 40.0 * np.c_[np.cos(angle), np.sin(angle)]}
+    table = {"frame": np.arange(n), "t_s": t}
+    for m, xy in pts.items():
+        mm = xy + rng.normal(0.0, 0.02, xy.shape)
+        table |= {f"{m}_x_px": px_per_mm * mm[:, 0], f"{m}_y_px": px_per_mm * mm[:, 1],
+                  f"{m}_ok": np.ones(n, dtype=bool), f"{m}_x_mm": mm[:, 0],
+                  f"{m}_y_mm": mm[:, 1], f"{m}_sigma_mm": np.full(n, 0.02)}
+    tracks = pd.DataFrame(table)
+    k, info = measure_kinematics(tracks, window_s=0.2)
+    assert info.repeated_frames == 8 and info.to_dict()["repeated_frames"] == 8
+    assert k["omega_rad_s"][again].isna().all() and not k["rigid_ok"][again].any()
+    assert (k["frame"] == tracks["frame"]).all() and (k["t_s"] == tracks["t_s"]).all()
+    middle = ~again & (t > 0.3) & (t < t[-1] - 0.3)
+    error = k["omega_rad_s"][middle] - omega
+    assert np.sqrt(np.mean(error**2)) < 0.01
+    # With them in, each rate fitted across one is off by a good part of a step.
+    kept, _ = measure_kinematics(tracks, window_s=0.2, skip_repeats=False)
+    assert np.sqrt(np.mean((kept["omega_rad_s"][middle] - omega) ** 2)) > 0.05

@@ -532,9 +532,9 @@ def stair_notes(tracks: pd.DataFrame, specs: tuple[MarkerSpec, ...]) -> list[str
             notes.append(
                 f"{s.name} moves in stairs: in {len(frames)} frames ({shown}, …) it all but "
                 "stops between two frames in which it moves on. Footage converted from a "
-                "lower frame rate repeats pictures like this; their timestamps are not when "
-                "they were taken, so rates across them are rough. The σ floor is read "
-                "without them")
+                "lower frame rate repeats pictures like this, and so does a phone that "
+                "cannot keep up; their timestamps are not when they were taken. The σ "
+                "floor and the kinematics are made without them")
     return notes
 
 
