@@ -320,6 +320,8 @@ def cmd_inspect(args: argparse.Namespace) -> int:
             break
     if frame is None:
         raise CranktrackError(f"{video} has no frames")
+    if frame.t_s < args.at:
+        print(f"the clip ends before --at {args.at:g} s: its last frame is shown")
     table = survey(frame.rgb, most=args.most, later=None if later is None else later.rgb)
     out = Path(args.out) if args.out else video.with_name(video.stem + "_inspect.png")
     write_survey_png(out, frame.rgb, table)
