@@ -71,12 +71,65 @@ def test_a_carried_state_follows_a_moving_disc():
         found = locate(draw({"B": (x, y, 5.5)}, noise_dn=1.0, seed=k), state=state, t_s=k / 30)
         assert found.loc[0, "status"] == "ok", k
         assert np.hypot(found.loc[0, "x_px"] - x, found.loc[0, "y_px"] - y) < 0.05, k
-    # Followed, not searched afresh: the state learned its radius and keeps three fixes
-    # (a parabola in time), each found within a few hundredths of a pixel of where
+    # Followed, not searched afresh: the state learned its radius and keeps four fixes
+    # (a parabola in time through the last three, and one more to tell a repeated
+    # picture from a turn), each found within a few hundredths of a pixel of where
     # the one before said it would be.
     assert state.markers[0].radius == pytest.approx(5.5, abs=0.3)
-    assert len(state.markers[0].history) == 3
+    assert len(state.markers[0].history) == 4
     assert state.markers[0].surprise_px < 0.1
+
+
+def test_after_a_repeated_picture_the_marker_is_predicted_on_not_back():
+    """A disc at a constant 9.37 px a frame whose picture is shown twice (a phone that
+    cannot keep up): the next fix is predicted where the disc is, not turned back by a
+    parabola through the repeat. The truth is the drawn motion."""
+    state = TrackerState.start([MarkerSpec("B", hue_deg=0)])
+    shown = [0, 1, 2, 3, 4, 4, 6]  # frame 5 shows frame 4's picture
+    for k, j in enumerate(shown):
+        x, y = 40.0 + 9.37 * j, 50.0 + 4.11 * j
+        assert locate(draw({"B": (x, y, 5.5)}, noise_dn=1.0, seed=k), state=state,
+                      t_s=k / 30).loc[0, "status"] == "ok", k
+    x7, y7 = 40.0 + 9.37 * 7, 50.0 + 4.11 * 7
+    px, py = state.markers[0].predict(7 / 30)
+    assert np.hypot(px - x7, py - y7) < 0.5
+    # Right after the repeat too: predicted a step on from frame 4's picture.
+    state = TrackerState.start([MarkerSpec("B", hue_deg=0)])
+    for k, j in enumerate(shown[:6]):
+        x, y = 40.0 + 9.37 * j, 50.0 + 4.11 * j
+        locate(draw({"B": (x, y, 5.5)}, noise_dn=1.0, seed=k), state=state, t_s=k / 30)
+    px, py = state.markers[0].predict(6 / 30)
+    assert np.hypot(px - (40.0 + 9.37 * 6), py - (50.0 + 4.11 * 6)) < 0.5
+
+
+def test_a_swing_slowing_into_its_turn_is_not_a_repeated_picture():
+    from cranktrack.tracker.marker_state import _repeats_picture
+
+    # A pendulum's steps as it slows into its turn (3.7, 2.6 and 0.4 px on a real
+    # clip): a parabola through the last fixes turns it, as it does.
+    t = np.arange(4) / 30
+    slowing = [(tk, 100.0 + xk, 50.0) for tk, xk in zip(t, (0.0, 3.7, 6.3, 6.7), strict=True)]
+    steady = [(tk, 100.0 + xk, 50.0) for tk, xk in zip(t, (0.0, 3.0, 6.1, 6.2), strict=True)]
+    assert not _repeats_picture(slowing) and _repeats_picture(steady)
+
+
+def test_a_marker_still_for_three_frames_is_followed_when_it_moves_off():
+    """A crank's marker at the turning point of its swing stands still for two frames,
+    and with the picture there shown again for three fixes; it then moves 9.5 px (1.7
+    radii) in a frame. Not yet a marker at rest, it is taken there (as a marker at
+    rest it was refused: a neighbour of its colour, it seemed)."""
+    state = TrackerState.start([MarkerSpec("B", hue_deg=0)])
+    xs = [60.0, 69.0, 75.0, 77.0, 77.0, 77.0, 86.5]
+    for k, x in enumerate(xs):
+        found = locate(draw({"B": (x, 70.0, 5.5)}, noise_dn=1.0, seed=k), state=state,
+                       t_s=k / 30)
+        assert found.loc[0, "status"] == "ok", k
+        assert abs(found.loc[0, "x_px"] - x) < 0.05, k
+    # Still for three frames it is not yet at rest; for four it is.
+    state = TrackerState.start([MarkerSpec("B", hue_deg=0)])
+    for k in range(5):
+        locate(draw({"B": (86.5, 70.0, 5.5)}, noise_dn=1.0, seed=k), state=state, t_s=k / 30)
+        assert state.markers[0].resting == (k >= 3), k
 
 
 @pytest.mark.parametrize("bad", [np.zeros((10, 10), np.uint8), np.zeros((10, 10, 3), float),

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -10,6 +9,7 @@ from numpy.typing import NDArray
 
 from .centre import Centre
 from .markers import AREA_GATE, MarkerSpec
+from .scatter import STAIR_RATIO
 
 #: A fit whose residual exceeds this many times the marker's usual residual is
 #: not a whole disc (partly covered, or something of its colour touching it).
@@ -37,13 +37,19 @@ KEEP_MOTION_MISSED = 2
 #: How far a marker's usual fitted gain may move the gains taken for it (a factor).
 GAIN_DRIFT = 1.5
 
-#: Fixes kept for the prediction: three, for a parabola in time.
-HISTORY_FIXES = 3
+#: Fixes kept for the prediction: three for a parabola in time, and one more to
+#: tell a repeated picture from a turn (:func:`_repeats_picture`).
+HISTORY_FIXES = 4
 
-#: A marker whose last :data:`HISTORY_FIXES` fixes each lie within this many radii of
-#: the one before stands still, or nearly: a pivot, a cone on the ground (whose fixes
+#: A marker whose last :data:`REST_STEPS` steps between fixes are each shorter than
+#: this many radii stands still, or nearly: a pivot, a cone on the ground (whose fixes
 #: scatter by 0.2–0.7 px on a real clip).
 REST_STEP = 0.25
+#: Three steps (four fixes): a crank at the turning point of its swing stands still
+#: for a frame or two, and with the picture there repeated (a phone that cannot keep
+#: up) for three fixes; taken for a marker at rest after two steps, it was refused its
+#: next fix 9.5 px on (1.7 radii) and lost for 16 frames of a render.
+REST_STEPS = 3
 #: ...and a marker standing still is not taken farther than this many radii from its
 #: prediction (that is a neighbour of its colour), for up to :data:`REST_MEMORY`
 #: frames missed. On OpenCV's vtest.avi (a fixed camera) a road sign on a stand,
@@ -52,6 +58,35 @@ REST_STEP = 0.25
 REST_REACH = 1.5
 REST_MEMORY = 64
 
+
+
+#: The step (px) before a fix that all but stops, from which the fix is taken for a
+#: repeated picture when predicting: slower, a stall changes the prediction by less
+#: than the window allows, and a marker at rest scatters by half a pixel on a real
+#: clip (vtest's sign), whose steps would pass :data:`.scatter.STAIR_STEP_PX`.
+STALL_STEP_PX = 2.0
+#: ...after a step at least this fraction of the one before it.
+STEADY = 0.8
+
+
+def _repeats_picture(history: list[tuple[float, float, float]]) -> bool:
+    """Does the last of the fixes (t s, x px, y px) repeat the picture before it: the
+    marker all but stopped (:data:`.scatter.STAIR_RATIO` of the step before, that step
+    at least :data:`STALL_STEP_PX`) in a frame as long as the one before? The
+    tracker cannot yet see the step after it, which :func:`.scatter.repeated_frames`
+    also asks to point the same way; a real sudden stop is predicted a step on, and
+    found by the window search around that."""
+    if len(history) < 4:
+        return False
+    t, xy = np.array([h[0] for h in history[-4:]]), np.array([h[1:] for h in history[-4:]])
+    dt, step = np.diff(t), np.diff(xy, axis=0)
+    earlier, before, here = np.hypot(step[:, 0], step[:, 1])
+    # Steady before it, as the marker was (a swing slowing into its turn is not:
+    # a pendulum's steps of 3.7, 2.6 and 0.4 px were taken for a repeat, and its
+    # next fit started 2 px beyond the turn), in frames of one length.
+    steady = before >= STEADY * earlier and float(step[0] @ step[1]) > 0.5 * earlier * before
+    even = np.ptp(dt) < 0.25 * dt.min()
+    return bool(even and steady and before >= STALL_STEP_PX and here <= STAIR_RATIO * before)
 
 @dataclass
 class MarkerState:
@@ -87,6 +122,8 @@ class MarkerState:
     surprise_px: float | None = None
     #: Has it been standing still (:meth:`off_its_place`)?
     resting: bool = False
+    #: Whether each of the last :data:`REST_STEPS` steps between fixes was short.
+    short_steps: list[bool] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)  # things the user should hear about
     radii_seen: list[float] = field(default_factory=list)  # fitted radii while learning, px
 
@@ -180,23 +217,31 @@ class MarkerState:
         to the window search; the parabola missed by 1.4–2.7 px."""
         if not self.history:
             return None
-        t1, x1, y1 = self.history[-1]
-        if len(self.history) < 2 or self.missed > KEEP_MOTION_MISSED:
+        history = self.history
+        if self.missed == 0 and _repeats_picture(history):
+            # The last fix shows the picture before it again: where the marker was
+            # then, not at that fix's time. A parabola through it turns the marker
+            # back (on a spool render with one picture in the stroke repeated, the
+            # next frame was predicted 7 px behind and lost); the line through the
+            # two fixes before it carries it on.
+            history = history[:-1]
+        t1, x1, y1 = history[-1]
+        if len(history) < 2 or self.missed > KEEP_MOTION_MISSED:
             return x1, y1
-        t0, x0, y0 = self.history[-2]
+        t0, x0, y0 = history[-2]
         if t1 <= t0:
             return x1, y1
         k = (t - t1) / (t1 - t0)
         linear = (x1 + k * (x1 - x0), y1 + k * (y1 - y0))
-        if len(self.history) < 3 or self.history[-3][0] >= t0:
+        if len(history) < 3 or history[-3][0] >= t0:
             return linear
         # Lagrange's parabola through the three fixes, evaluated at t.
-        ta = self.history[-3][0]
+        ta = history[-3][0]
         w = np.array([(t - t0) * (t - t1) / ((ta - t0) * (ta - t1)),
                       (t - ta) * (t - t1) / ((t0 - ta) * (t0 - t1)),
                       (t - ta) * (t - t0) / ((t1 - ta) * (t1 - t0))])
-        xs = np.array([p[1] for p in self.history[-3:]])
-        ys = np.array([p[2] for p in self.history[-3:]])
+        xs = np.array([p[1] for p in history[-3:]])
+        ys = np.array([p[2] for p in history[-3:]])
         return float(w @ xs), float(w @ ys)
 
     def found_at(self, t: float, x: float, y: float, predicted: tuple[float, float] | None
@@ -211,17 +256,23 @@ class MarkerState:
             self.surprise_px = None
         # After a short loss the fixes before it still give the motion; after a
         # longer one they are too old.
-        kept = self.history[1 - HISTORY_FIXES:] if self.missed <= KEEP_MOTION_MISSED else []
+        history = self.history
+        if self.missed == 0 and _repeats_picture(history):
+            # The fix before repeated the picture before it: its time is not its
+            # picture's, and a parabola through it would bend the motion.
+            history = history[:-1]
+        kept = history[1 - HISTORY_FIXES:] if self.missed <= KEEP_MOTION_MISSED else []
         self.history = [*kept, (t, x, y)]
         self.missed = 0
-        # Standing still or moving, remembered past a loss (the fixes before it are
-        # not). One step out of line (a poor fit) does not end a rest: two do.
-        if len(self.history) == HISTORY_FIXES and self.radius is not None:
-            small = [np.hypot(b[1] - a[1], b[2] - a[2]) < REST_STEP * self.radius
-                     for a, b in itertools.pairwise(self.history)]
-            if all(small):
+        # Standing still or moving, remembered past a loss, as are the steps before
+        # it. One step out of line (a poor fit) does not end a rest: two do.
+        if len(self.history) >= 2 and self.radius is not None:
+            (_, xa, ya), (_, xb, yb) = self.history[-2:]
+            short = bool(np.hypot(xb - xa, yb - ya) < REST_STEP * self.radius)
+            self.short_steps = [*self.short_steps[1 - REST_STEPS:], short]
+            if len(self.short_steps) == REST_STEPS and all(self.short_steps):
                 self.resting = True
-            elif not any(small):
+            elif not any(self.short_steps[-2:]) and len(self.short_steps) >= 2:
                 self.resting = False
 
     def forget_motion(self) -> None:

@@ -81,7 +81,7 @@ def scatter_sigma(xy: NDArray[np.floating], window: int = WINDOW_FRAMES,
 #: neighbouring steps, those at least :data:`STAIR_STEP_PX` long and pointing the same
 #: way, shows the picture before it again (:func:`repeated_frames`).
 STAIR_RATIO = 0.2
-STAIR_STEP_PX = 1.0
+STAIR_STEP_PX = 0.5
 
 
 def repeated_frames(xy: NDArray[np.floating]) -> NDArray[np.bool_]:
