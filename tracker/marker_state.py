@@ -58,8 +58,6 @@ REST_STEPS = 3
 REST_REACH = 1.5
 REST_MEMORY = 64
 
-
-
 #: The step (px) before a fix that all but stops, from which the fix is taken for a
 #: repeated picture when predicting: slower, a stall changes the prediction by less
 #: than the window allows, and a marker at rest scatters by half a pixel on a real
@@ -81,12 +79,14 @@ def _repeats_picture(history: list[tuple[float, float, float]]) -> bool:
     t, xy = np.array([h[0] for h in history[-4:]]), np.array([h[1:] for h in history[-4:]])
     dt, step = np.diff(t), np.diff(xy, axis=0)
     earlier, before, here = np.hypot(step[:, 0], step[:, 1])
-    # Steady before it, as the marker was (a swing slowing into its turn is not:
-    # a pendulum's steps of 3.7, 2.6 and 0.4 px were taken for a repeat, and its
-    # next fit started 2 px beyond the turn), in frames of one length.
+    # Steady before it, as the marker was (a swing slowing into its turn is not: a
+    # real pendulum's steps of 3.7, 2.6 and 0.4 px were taken for a repeat, its next
+    # prediction went on past the turn, and its fits from there changed by up to
+    # 0.8 px), in frames of one length.
     steady = before >= STEADY * earlier and float(step[0] @ step[1]) > 0.5 * earlier * before
     even = np.ptp(dt) < 0.25 * dt.min()
     return bool(even and steady and before >= STALL_STEP_PX and here <= STAIR_RATIO * before)
+
 
 @dataclass
 class MarkerState:
