@@ -9,11 +9,12 @@ extracts them to ``bench/.cache/real_footage``:
 
     .venv/bin/python bench/real_footage.py /path/to/OpenSourcePhysics/tracker
 
-Per clip it prints: found % over the frames the peer clicked; RMS px against the
-peer's track after removing the constant offset between a click and a centre;
-the physics residual (a parabola for a ball in flight) and the figure it gives
-(g, with the peer's own tape measure on the metre stick as the known length),
-the same figure from the peer's clicks; ±1σ coverage of our σ against that
+Per clip it prints: found % over the frames the peer clicked; where ``cranktrack
+inspect`` lists the object the peer clicked; RMS px against the peer's track after
+removing the constant offset between a click and a centre; the physics residual (a
+parabola for a ball in flight) and the figure it gives (g, with the peer's own tape
+measure on the metre stick as the known length, and again with the stick's own
+painted tenths), the same figure from the peer's clicks; ±1σ coverage of our σ against that
 parabola; and the wall time of tracking against decoding alone. For an
 animation that loops (jmoljana, a Jmol vibration), the physics is the loop: a
 frame and the one a period later (the period taken from the peer's clicks)
@@ -218,6 +219,8 @@ def stick_divisions(video: Path, fps: float | None, ends: NDArray, per_m: int = 
             a, b, c = profile[i - 1:i + 2]
             gaps.append(s[i] + 0.25 * 0.5 * (a - c) / (a - 2 * b + c))
     gaps = np.array(gaps)
+    if len(gaps) < 3:
+        return float("nan"), len(gaps), float("nan")
     k = np.arange(len(gaps))
     slope, icept = np.polyfit(k, gaps, 1)
     rms = float(np.sqrt(np.mean((gaps - (slope * k + icept)) ** 2)))
