@@ -306,18 +306,13 @@ def _span(start: tuple[float, str] | None, end: tuple[float, str] | None):
 
 def cmd_inspect(args: argparse.Namespace) -> int:
     from .report.survey import write_survey_png
-    from .tracker.survey import LATER_S, survey
+    from .tracker.survey import frame_and_later, survey
     from .tracker.video import open_frames
 
     video = Path(args.video)
-    frame = later = None
     # A second frame a little later tells what moves: what people film markers for.
-    for f in open_frames(video, fps=args.fps).frames():
-        if frame is None or frame.t_s < args.at:
-            frame = f
-        elif f.t_s >= frame.t_s + LATER_S:
-            later = f
-            break
+    frame, later = frame_and_later(open_frames(video, fps=args.fps).frames(),
+                                   lambda f: f.t_s >= args.at)
     if frame is None:
         raise CranktrackError(f"{video} has no frames")
     if frame.t_s < args.at:

@@ -45,7 +45,7 @@ from common import CACHE
 from pendulum import G, plane_swing, sphere_swing
 
 from cranktrack.tracker.markers import parse_markers
-from cranktrack.tracker.survey import LATER_S, survey
+from cranktrack.tracker.survey import frame_and_later, survey
 from cranktrack.tracker.track import track
 from cranktrack.tracker.video import open_frames
 from cranktrack.warmup import compile_kernels
@@ -329,15 +329,9 @@ def inspect_rank(video: Path, fps: float | None, frame: int, xy: tuple[float, fl
                  ) -> tuple[int | None, int]:
     """Where ``cranktrack inspect`` lists the object the peer clicked at ``xy`` in
     ``frame`` (1 = first; None: not listed), and how many candidates it lists in all."""
-    src = open_frames(video, fps)
-    first = later = None
-    for f in src.frames():
-        if f.index == frame:
-            first = f
-        elif first is not None and f.t_s >= first.t_s + LATER_S:
-            later = f
-            break
-    if first is None:
+    first, later = frame_and_later(open_frames(video, fps).frames(),
+                                   lambda f: f.index >= frame)
+    if first is None or first.index != frame:
         return None, 0
     table = survey(first.rgb, most=1000, later=None if later is None else later.rgb)
     gap = np.hypot(table["x_px"] - xy[0], table["y_px"] - xy[1])

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -76,16 +78,19 @@ def _repeats_picture(history: list[tuple[float, float, float]]) -> bool:
     found by the window search around that."""
     if len(history) < 4:
         return False
-    t, xy = np.array([h[0] for h in history[-4:]]), np.array([h[1:] for h in history[-4:]])
-    dt, step = np.diff(t), np.diff(xy, axis=0)
-    earlier, before, here = np.hypot(step[:, 0], step[:, 1])
+    # Plain floats: this runs for every marker on every frame.
+    fixes = history[-4:]
+    dt = [b[0] - a[0] for a, b in itertools.pairwise(fixes)]
+    step = [(b[1] - a[1], b[2] - a[2]) for a, b in itertools.pairwise(fixes)]
+    earlier, before, here = (math.hypot(*d) for d in step)
     # Steady before it, as the marker was (a swing slowing into its turn is not: a
     # real pendulum's steps of 3.7, 2.6 and 0.4 px were taken for a repeat, its next
     # prediction went on past the turn, and its fits from there changed by up to
     # 0.8 px), in frames of one length.
-    steady = before >= STEADY * earlier and float(step[0] @ step[1]) > 0.5 * earlier * before
-    even = np.ptp(dt) < 0.25 * dt.min()
-    return bool(even and steady and before >= STALL_STEP_PX and here <= STAIR_RATIO * before)
+    turn = step[0][0] * step[1][0] + step[0][1] * step[1][1]
+    steady = before >= STEADY * earlier and turn > 0.5 * earlier * before
+    even = max(dt) - min(dt) < 0.25 * min(dt)
+    return even and steady and before >= STALL_STEP_PX and here <= STAIR_RATIO * before
 
 
 @dataclass

@@ -9,11 +9,14 @@ what ``track`` will find) over a ring of hues and the two luminance tones.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
+
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
 from .markers import COLOUR_HUES_DEG, MarkerSpec, balanced_hsv, find_blobs, white_balance_gains
+from .video import Frame
 
 #: Hues searched, 30° apart, each ±20°: every hue falls in at least one window.
 SURVEY_HUES_DEG = tuple(range(0, 360, 30))
@@ -27,6 +30,20 @@ STILL_PX = 2.0
 #: for a marker people film to move a pixel, short enough that it is still in view.
 LATER_S = 0.2
 
+
+
+def frame_and_later(frames: Iterable[Frame], wanted: Callable[[Frame], bool]
+                    ) -> tuple[Frame | None, Frame | None]:
+    """The first of ``frames`` that is ``wanted`` (else the last one), and the first
+    :data:`LATER_S` or more after it (None where the clip ends before): the pair
+    :func:`survey` compares to tell what moves. Stops decoding there."""
+    frame = None
+    for f in frames:
+        if frame is None or not wanted(frame):
+            frame = f
+        elif f.t_s >= frame.t_s + LATER_S:
+            return frame, f
+    return frame, None
 
 def _colour_name(hue_deg: float) -> str:
     """The named colour nearest a hue (for the label only)."""
