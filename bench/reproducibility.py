@@ -1,0 +1,157 @@
+"""The same real clips tracked again with an invisible change: how much the answer moves.
+
+A ±1 DN pattern, fresh in every frame, is added to each clip's luminance (to every
+channel of an RGB clip) before the tracker sees it: no one could tell the two
+videos apart, and the codec's own noise is several times larger. The truth here is
+that the answer should not change, so it needs no peer and no physics:
+
+- *found*: how many frames the object is found in, as is and with each pattern. A
+  count that changes shows a one-time decision (which blob, what size) that hangs
+  on a pixel;
+- *moved*: over the frames found both times, how far the fix moved (px), median and
+  95th percentile, against the σ the tracker gave as is. A fix that moves by σ under
+  a change this small has an error of at least that from noise alone;
+- *jumps*: fixes that moved by more than 3 px (another place on the object, or
+  another object).
+
+The clips are those of ``bench/real_footage.py`` (Tracker's examples, and a real
+pendulum) and the objects at rest of ``bench/real_clips.py`` (OpenCV's vtest.avi,
+from its cache). Clips are not committed; give the same paths as to
+``real_footage.py``, and without them it says so and exits 0:
+
+    .venv/bin/python bench/reproducibility.py /path/to/OpenSourcePhysics/tracker \\
+        --pendulum /path/to/juangomez177/Pendulum_Oscillatory_Motion [--seeds 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import real_clips
+import real_footage
+
+from cranktrack.tracker.markers import parse_markers
+from cranktrack.tracker.track import track
+from cranktrack.tracker.video import Frame, FrameSource, open_frames
+from cranktrack.warmup import compile_kernels
+
+#: How far (px) a fix may move under the pattern before it counts as a jump.
+JUMP_PX = 3.0
+
+
+@dataclasses.dataclass
+class Patterned:
+    """A :class:`FrameSource` whose frames carry a ±1 DN pattern, fresh in each frame
+    (drawn from ``seed`` and the frame's index, so a run is repeatable)."""
+
+    source: FrameSource
+    seed: int
+
+    def __getattr__(self, name: str):
+        return getattr(self.source, name)
+
+    def frames(self, prefetch: int = 0) -> Iterator[Frame]:
+        for f in self.source.frames(prefetch):
+            rng = np.random.default_rng((self.seed, f.index))
+            pixels = f.pixels.astype(np.int16)
+            # Luminance only where the decoder's planes are kept: Y is the top 2/3.
+            rows = pixels.shape[0] * 2 // 3 if f.layout == "i420" else pixels.shape[0]
+            pixels[:rows] += rng.integers(-1, 2, size=pixels[:rows].shape, dtype=np.int16)
+            yield dataclasses.replace(f, pixels=np.clip(pixels, 0, 255).astype(np.uint8))
+
+
+def compare(name: str, base: pd.DataFrame, others: list[pd.DataFrame]) -> str:
+    """One line: found, moved and jumps of marker ``name`` over the patterned runs."""
+    ok = base[f"{name}_ok"].to_numpy(bool)
+    xy = base[[f"{name}_x_px", f"{name}_y_px"]].to_numpy(float)
+    sigma = base[f"{name}_sigma_px"].to_numpy(float)
+    found, moved, beyond, jumps = [], [], [], 0
+    for tab in others:
+        ok2 = tab[f"{name}_ok"].to_numpy(bool)
+        found.append(int(ok2.sum()))
+        both = ok & ok2
+        delta = xy[both] - tab[[f"{name}_x_px", f"{name}_y_px"]].to_numpy(float)[both]
+        d = np.hypot(delta[:, 0], delta[:, 1])
+        jumps += int((d > JUMP_PX).sum())
+        # σ is per axis: the larger of the two axes' moves against it.
+        beyond.append(np.abs(delta).max(axis=1) > sigma[both])
+        moved.append(d)
+    d = np.concatenate(moved) if moved else np.array([])
+    if not len(d):
+        return f"{name}: found in {ok.sum()} frames as is, {found} with the pattern; none in both"
+    return (f"{name}: found in {ok.sum()} frames as is, {min(found)}–{max(found)} with the "
+            f"pattern; moved median {np.median(d):.3f}, 95 % {np.percentile(d, 95):.3f} px "
+            f"(σ median {np.median(sigma[ok]):.3f}); more than σ on an axis in "
+            f"{100 * np.concatenate(beyond).mean():.0f} % of fixes; jumps over {JUMP_PX:g} px: "
+            f"{jumps} of {len(d)}")
+
+
+def run(label: str, video: Path, fps: float | None, markers: list[str], seeds: int) -> None:
+    """Track ``video`` as is and with ``seeds`` patterns; print a line per marker."""
+    specs = parse_markers(markers)
+    t0 = time.perf_counter()
+    base = track(open_frames(video, fps), specs).tracks
+    others = [track(Patterned(open_frames(video, fps), seed), specs).tracks
+              for seed in range(seeds)]
+    print(f"\n{label} ({len(base)} frames, {seeds} patterns, "
+          f"{time.perf_counter() - t0:.0f} s)")
+    for spec in specs:
+        print("  " + compare(spec.name, base, others))
+
+
+def tracker_clips(repo: Path) -> Iterator[tuple[str, Path, float | None, str]]:
+    """(label, video, fps, marker) of each of ``real_footage.CLIPS`` found in ``repo``."""
+    for clip in real_footage.CLIPS:
+        trz = real_footage._extract(repo, clip.trz)
+        if trz is None:
+            print(f"{clip.trz}: not in {repo}; skipped")
+            continue
+        video, fps, _, _ = real_footage.peer_project(trz, clip.mass, clip.trk)
+        if clip.video:
+            other = real_footage._extract(repo, clip.video)
+            if other is None:
+                continue
+            video, fps = other, None
+        yield f"{clip.trz} ({video.name})", video, fps, clip.marker
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("tracker", nargs="?", type=Path,
+                    help="a checkout of OpenSourcePhysics/tracker, or its git directory")
+    ap.add_argument("--pendulum", type=Path,
+                    help="a checkout of juangomez177/Pendulum_Oscillatory_Motion, or its git "
+                         "directory")
+    ap.add_argument("--seeds", type=int, default=3, help="patterns per clip (default 3)")
+    args = ap.parse_args()
+    vtest = real_clips.CACHE / "opencv-doc" / "vtest.avi"
+    given = [p for p in (args.tracker, args.pendulum) if p is not None and p.exists()]
+    if not given and not vtest.exists():
+        print("usage: bench/reproducibility.py [PATH-TO-OpenSourcePhysics/tracker] "
+              "[--pendulum PATH-TO-juangomez177/Pendulum_Oscillatory_Motion]; no clip "
+              "given and no vtest.avi cached by bench/real_clips.py, nothing measured")
+        return
+    compile_kernels()
+    if args.tracker is not None and args.tracker.exists():
+        for label, video, fps, marker in tracker_clips(args.tracker):
+            run(label, video, fps, [marker], args.seeds)
+    if args.pendulum is not None and args.pendulum.exists():
+        name, marker, _ = real_footage.PENDULUM
+        video = real_footage._extract(args.pendulum, name, folder="")
+        if video is not None:
+            run(name, video, None, [marker], args.seeds)
+    if vtest.exists():
+        run("vtest.avi, objects at rest", vtest, None, list(real_clips.AT_REST), args.seeds)
+
+
+if __name__ == "__main__":
+    main()
