@@ -157,7 +157,14 @@ class MarkerState:
         """The fitted gains taken for the marker: ``nominal`` (for a gain of 1) times
         its usual gain, which may move the range by :data:`GAIN_DRIFT` either way.
         On a falling paper cup (a 8×3 px strip) the gain was 1.0–1.75 and a fixed
-        upper bound of 1.7 lost it in one frame of nine."""
+        upper bound of 1.7 lost it in one frame of nine. While a marker of any shape
+        (not one of the crank-slider's flat discs, whose gain is 1) is being learned
+        its usual gain is not known yet, and the range is ``nominal`` widened by
+        :data:`GAIN_DRIFT` either way: with an invisible ±1 DN pattern added, the
+        cup's gain against the colour seen in its first fit was 1.73–1.95, and it was
+        lost from its second frame on."""
+        if self.learning and not self.spec.flat:
+            return nominal[0] / GAIN_DRIFT, nominal[1] * GAIN_DRIFT
         usual = 1.0 if self.gain is None else min(max(self.gain, 1 / GAIN_DRIFT), GAIN_DRIFT)
         return nominal[0] * usual, nominal[1] * usual
 

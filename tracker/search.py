@@ -119,8 +119,12 @@ PLACED_WINDOW_PX = 64
 
 
 def placed_reach(blob: Blob) -> float:
-    """How far (px) from where the user said a marker is its first blob may lie."""
-    return 4.0 * blob.radius + 20.0
+    """How far (px) from where the user said a marker is its first blob may lie: its
+    diameter and 8 px. A user gives the place from ``inspect`` or a click, within a
+    few pixels. At 4 radii and 20 px, a knuckle of the hand holding Tracker's ball
+    (radius 7.8 px), 43 px from the place, was taken for the ball a frame before the
+    ball got there, with an invisible ±1 DN pattern added; the ball was then lost."""
+    return 2.0 * blob.radius + 8.0
 
 
 def placed_blob(frame: Frame, state: MarkerState, hsv_cache: dict) -> tuple[Blob | None, str]:
