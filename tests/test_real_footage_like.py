@@ -756,3 +756,29 @@ def test_a_marker_seen_once_keeps_to_the_nearest_of_two_blobs_of_about_its_size(
     row = locate(image, state=state, t_s=0.1).loc[0]
     assert row["status"] == "ok"
     assert np.hypot(row["x_px"] - 60.0, row["y_px"] - 60.0) < 0.2, row
+
+
+def test_a_speck_taken_for_the_marker_in_the_first_frame_is_a_false_start(tmp_path):
+    # In the first frame only a 2 px speck of the marker's colour lies near where the
+    # user said it is (the sign itself hidden); from then on the 10 px sign is there.
+    # Learned from the speck, the sign was refused as too big in every frame after.
+    import cv2
+
+    from cranktrack.tracker.track import track
+    from cranktrack.tracker.video import open_frames
+
+    sign = (70.3, 60.6)
+    for k in range(12):
+        discs = [(64.0, 72.0, 2.0, (220.0, 40.0, 40.0))] if k == 0 else \
+            [(*sign, 10.0, (220.0, 40.0, 40.0))]
+        image = draw(discs, size=(160, 120), background=(150.0, 150.0, 145.0), seed=k)
+        cv2.imwrite(str(tmp_path / f"{k:03d}.png"), image[..., ::-1])
+    result = track(open_frames(tmp_path, 30.0), parse_markers(["sign=red@68,66"]))
+    tab = result.tracks
+    assert tab["sign_status"].iloc[0] == "rejected"  # the speck is not the sign
+    found = tab["sign_ok"].to_numpy(bool)
+    assert found[5:].all(), tab["sign_status"].tolist()
+    error = np.hypot(tab["sign_x_px"] - sign[0], tab["sign_y_px"] - sign[1])[found]
+    assert error.max() < 0.1, error
+    assert 9.5 < result.learned["sign"]["radius_px"] < 10.5
+    assert any("false start" in p for p in result.problems), result.problems

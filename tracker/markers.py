@@ -416,6 +416,16 @@ def balanced_hsv(rgb: NDArray[np.uint8], gains: NDArray[np.float32] | None) -> N
     return cv2.cvtColor(img, cv2.COLOR_RGB2HSV)
 
 
+def place_reach(radius: float) -> float:
+    """How far (px) from where the user said a marker is (``@X,Y``) a blob of ``radius``
+    px may lie to be taken for it there: its diameter and 8 px. A user gives the place
+    from ``inspect`` or a click, within a few pixels. At 4 radii and 20 px, a knuckle of
+    the hand holding Tracker's ball (radius 7.8 px), 43 px from the place, was taken for
+    the ball a frame before the ball got there, with an invisible ±1 DN pattern added;
+    the ball was then lost."""
+    return 2.0 * radius + 8.0
+
+
 def acquire(hsv: NDArray[np.uint8], spec: MarkerSpec, expected_area: float | None = None,
             near: tuple[float, float] | None = None,
             gates: tuple[tuple[float, float], ...] = (AREA_GATE,),

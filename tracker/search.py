@@ -20,6 +20,7 @@ from .markers import (
     acquire,
     balanced_hsv,
     find_blobs,
+    place_reach,
     white_balance_gains,
 )
 from .refine import patch_around
@@ -114,17 +115,8 @@ def full_blobs(frame: Frame, spec: MarkerSpec, hsv_cache: dict) -> list[Blob]:
 
 #: Half-width (px) of the window searched on every frame around where the user said
 #: a marker not yet found is (``--marker NAME=COLOUR@X,Y``). A blob farther than
-#: :func:`placed_reach` from that place is not taken for it anyway.
+#: :func:`.markers.place_reach` from that place is not taken for it anyway.
 PLACED_WINDOW_PX = 64
-
-
-def placed_reach(blob: Blob) -> float:
-    """How far (px) from where the user said a marker is its first blob may lie: its
-    diameter and 8 px. A user gives the place from ``inspect`` or a click, within a
-    few pixels. At 4 radii and 20 px, a knuckle of the hand holding Tracker's ball
-    (radius 7.8 px), 43 px from the place, was taken for the ball a frame before the
-    ball got there, with an invisible ±1 DN pattern added; the ball was then lost."""
-    return 2.0 * blob.radius + 8.0
 
 
 def placed_blob(frame: Frame, state: MarkerState, hsv_cache: dict) -> tuple[Blob | None, str]:
@@ -138,7 +130,7 @@ def placed_blob(frame: Frame, state: MarkerState, hsv_cache: dict) -> tuple[Blob
     hsv = balanced_hsv(patch, balance_gains(frame, hsv_cache))
     blob, status, _ = acquire(hsv, state.spec, state.area, near, state.area_gates,
                               lambda spec: find_blobs(hsv, spec, x0, y0))
-    if blob is not None and np.hypot(blob.x - near[0], blob.y - near[1]) > placed_reach(blob):
+    if blob is not None and np.hypot(blob.x - near[0], blob.y - near[1]) > place_reach(blob.radius):
         return None, "not_found"
     return blob, status
 
@@ -151,7 +143,7 @@ def full_frame_blob(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
                                    state.area_gates,
                                    lambda spec: full_blobs(frame, spec, hsv_cache))
     if blob is not None and pred is None and near is not None and np.hypot(
-            blob.x - near[0], blob.y - near[1]) > placed_reach(blob):
+            blob.x - near[0], blob.y - near[1]) > place_reach(blob.radius):
         return None, "not_found"  # not yet where the user said it is
     # Where the user said the marker is, the blob there was taken: the others are not
     # a guess to warn of.

@@ -108,7 +108,7 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict
                 if _plausible(centre, pred, state):
                     if not state.whole(centre):
                         return None, "partly_covered"
-                    state.remember(centre, seen)
+                    state.remember(centre, seen, frame.index)
                     return centre, "ok"
             half = window(state)
             patch, x0, y0 = patch_around(frame, pred[0], pred[1], half)
@@ -150,7 +150,7 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict
         return None, "rejected"  # a neighbour of its colour, not a marker at rest
     if state.radius is None:
         state.radius = centre.radius
-    state.remember(centre, seen)
+    state.remember(centre, seen, frame.index)
     return centre, "ok"
 
 
@@ -469,19 +469,36 @@ def _locate_markers(frame: Frame, state: TrackerState) -> list:
     values: list = []
     hsv_cache: dict = state.balance.copy()
     found: list[tuple[MarkerState, Centre]] = []
-    for st in state.markers:
+    for k, st in enumerate(state.markers):
         predicted = st.predict(frame.t_s)
         centre, status = _locate(frame, st, frame.t_s, hsv_cache)
         state.balance["gains"] = hsv_cache.get("gains")
         if centre is None:
             values += [np.nan, np.nan, np.nan, False, status]
             st.missed += 1  # searched for around its last fix, in a widening window
+            if st.started_falsely:
+                state.markers[k] = st.restarted(frame.t_s)
         else:
+            if st.false_start is not None:
+                _judge_false_start(state.rows, k, st, centre.radius)
             st.found_at(frame.t_s, centre.x, centre.y, predicted)
             values += [centre.x, centre.y, centre.sigma, True, status]
             found.append((st, centre))
     _one_blob_each(found, state.markers, values, frame.t_s)
     return values
+
+
+def _judge_false_start(rows: list[list], k: int, st: MarkerState, radius: float) -> None:
+    """The first find after marker ``k``'s false start, at ``radius`` px: if the thing
+    found then was of another size (a speck where the marker is a disc), its rows in
+    ``rows`` are not the marker's and are marked ``rejected``."""
+    frames, _ = st.false_start
+    if not st.like_false_start(radius):
+        wrong = set(frames)
+        for row in rows:
+            if int(row[0]) in wrong:
+                row[2 + 5 * k:7 + 5 * k] = [np.nan, np.nan, np.nan, False, "rejected"]
+    st.false_start = None
 
 
 def _one_blob_each(found: list[tuple[MarkerState, Centre]], markers: list[MarkerState],
