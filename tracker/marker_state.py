@@ -46,6 +46,12 @@ KEEP_MOTION_MISSED = 2
 
 #: How far a marker's usual fitted gain may move the gains taken for it (a factor).
 GAIN_DRIFT = 1.5
+#: How much higher a gain is taken while a marker (not a flat disc) is learned. With an
+#: invisible ±1 DN pattern added, a falling cup's gain against the colour seen in its
+#: first fit was 1.73–1.95, and above 1.7 it was lost from its second frame on. Not
+#: more: at 1.5× (up to 2.55), vtest's second cone learned a 1.9 px fit of its
+#: reflector (it is 4 px) and was then found in 98 of 795 frames, not 785.
+LEARNING_GAIN_HEADROOM = 1.2
 
 #: Fixes kept for the prediction: three for a parabola in time, and one more to
 #: tell a repeated picture from a turn (:func:`_repeats_picture`).
@@ -216,12 +222,10 @@ class MarkerState:
         On a falling paper cup (a 8×3 px strip) the gain was 1.0–1.75 and a fixed
         upper bound of 1.7 lost it in one frame of nine. While a marker of any shape
         (not one of the crank-slider's flat discs, whose gain is 1) is being learned
-        its usual gain is not known yet, and the range is ``nominal`` widened by
-        :data:`GAIN_DRIFT` either way: with an invisible ±1 DN pattern added, the
-        cup's gain against the colour seen in its first fit was 1.73–1.95, and it was
-        lost from its second frame on."""
+        its usual gain is not known yet, and the upper bound is raised by
+        :data:`LEARNING_GAIN_HEADROOM`."""
         if self.learning and not self.spec.flat:
-            return nominal[0] / GAIN_DRIFT, nominal[1] * GAIN_DRIFT
+            return nominal[0], nominal[1] * LEARNING_GAIN_HEADROOM
         usual = 1.0 if self.gain is None else min(max(self.gain, 1 / GAIN_DRIFT), GAIN_DRIFT)
         return nominal[0] * usual, nominal[1] * usual
 
