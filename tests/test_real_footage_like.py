@@ -782,3 +782,20 @@ def test_a_speck_taken_for_the_marker_in_the_first_frame_is_a_false_start(tmp_pa
     assert error.max() < 0.1, error
     assert 9.5 < result.learned["sign"]["radius_px"] < 10.5
     assert any("false start" in p for p in result.problems), result.problems
+
+
+def test_a_marker_seen_once_and_then_hidden_is_not_refound_far_off():
+    # vtest.avi's second cone with an invisible ±1 DN pattern: seen once, its own blob
+    # failed the next frames, and a whole-frame search took another orange thing 150 px
+    # (37 radii) off, where it was followed for the rest of the clip.
+    red = (220.0, 40.0, 40.0)
+    state = TrackerState.start(parse_markers(["dot=red@40,60"]))
+    rows = []
+    for k, shown in enumerate([True, False, True, True]):
+        discs = ([(40.0 + k, 60.0, 4.0, red)] if shown else []) + [(210.0, 150.0, 4.0, red)]
+        row = locate(draw(discs, background=(150.0, 150.0, 145.0), seed=k), state=state,
+                     t_s=k / 30).loc[0]
+        rows.append((row["status"], row["x_px"], row["y_px"]))
+    assert rows[1][0] != "ok", rows
+    assert all(s == "ok" and abs(x - 40.0 - k) < 0.2 and abs(y - 60.0) < 0.2
+               for k, (s, x, y) in enumerate(rows) if k != 1), rows
