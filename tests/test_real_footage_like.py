@@ -799,3 +799,21 @@ def test_a_marker_seen_once_and_then_hidden_is_not_refound_far_off():
     assert rows[1][0] != "ok", rows
     assert all(s == "ok" and abs(x - 40.0 - k) < 0.2 and abs(y - 60.0) < 0.2
                for k, (s, x, y) in enumerate(rows) if k != 1), rows
+
+
+def test_a_marker_placed_too_far_from_where_it_is_is_named_with_its_place(tmp_path):
+    # A place is taken within the blob's diameter + 8 px. One given 30 px off finds
+    # nothing; the run says where the nearest blob of its colour was and what to type.
+    import cv2
+
+    from cranktrack.tracker.track import track
+    from cranktrack.tracker.video import open_frames
+
+    for k in range(4):
+        image = draw([(100.0 + k, 80.0, 5.0, (220.0, 40.0, 40.0))], size=(160, 120),
+                     background=(150.0, 150.0, 145.0), seed=k)
+        cv2.imwrite(str(tmp_path / f"{k:03d}.png"), image[..., ::-1])
+    result = track(open_frames(tmp_path, 30.0), parse_markers(["dot=red@70,80"]))
+    assert not result.tracks["dot_ok"].any()
+    said = [p for p in result.problems if "never within reach" in p]
+    assert len(said) == 1 and "--marker dot=COLOUR@100,80" in said[0], result.problems

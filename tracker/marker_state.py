@@ -144,6 +144,9 @@ class MarkerState:
     #: Whether each of the last :data:`REST_STEPS` steps between fixes was short.
     short_steps: list[bool] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)  # things the user should hear about
+    #: The nearest blob refused as too far from where the user placed the marker
+    #: (x px, y px, distance px), to name if the marker is never found.
+    refused_near: tuple[float, float, float] | None = None
     radii_seen: list[float] = field(default_factory=list)  # fitted radii while learning, px
     #: The spec as the user gave it, before its colour was learned (None: ``spec``).
     given: MarkerSpec | None = None
@@ -200,6 +203,24 @@ class MarkerState:
             return True
         area = (radius / self.false_start[1]) ** 2
         return AREA_GATE[0] <= area <= AREA_GATE[1]
+
+    def refuse_far(self, blob_x: float, blob_y: float, distance: float) -> None:
+        """Remember a blob refused as ``distance`` px from the marker's place, if nearer
+        than any refused before."""
+        if self.refused_near is None or distance < self.refused_near[2]:
+            self.refused_near = (blob_x, blob_y, distance)
+
+    def never_found_note(self) -> str | None:
+        """For a placed marker never found, where the nearest blob of its colour and size
+        lay (or None)."""
+        if self.refused_near is None or self.spec.near_px is None:
+            return None
+        x, y, d = self.refused_near
+        px, py = self.spec.near_px
+        return (f"marker {self.spec.name} was never within reach of its place ({px:.0f}, "
+                f"{py:.0f}): the nearest blob of its colour and size was at ({x:.0f}, {y:.0f}),"
+                f" {d:.0f} px off, and a place is taken within the blob's diameter + 8 px. "
+                f"If that is the marker, say --marker {self.spec.name}=COLOUR@{x:.0f},{y:.0f}")
 
     @property
     def area(self) -> float | None:

@@ -713,5 +713,7 @@ def track(
                               "radius_px": None if st.radius is None else round(st.radius, 3)}
                for st in state.markers}
     notes = [n for st in state.markers for n in st.notes] + stair_notes(tracks, specs)
+    notes += [note for st in state.markers if found[st.spec.name] == 0
+              and (note := st.never_found_note())]
     return TrackResult(tracks, timing_report(tracks["t_s"].to_numpy(), source.nominal_fps),
                        found, list(source.problems) + notes, learned, state)
