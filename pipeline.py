@@ -225,10 +225,14 @@ def track_run(
         return result
 
 
-def _found_warnings(found_fraction: dict[str, float]) -> list[str]:
-    """What to tell the user of markers found in few or no frames."""
+def _found_warnings(found_fraction: dict[str, float], problems: list[str]) -> list[str]:
+    """What to tell the user of markers found in few or no frames (``problems`` may
+    already say why one was never found: not within reach of its place)."""
     out = []
     for name, frac in found_fraction.items():
+        if frac == 0 and any(p.startswith(f"marker {name} was never within reach")
+                             for p in problems):
+            continue
         if frac == 0:
             out.append(f"marker {name} was not found in any frame; check its colour")
         elif frac < 0.95:
@@ -288,7 +292,8 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
     names = tuple(s.name for s in specs)
     if fill_gaps_frames > 0:
         tracks = fill_gaps(tracks, names, fill_gaps_frames)
-    warnings = list(result.problems) + _found_warnings(result.found_fraction)
+    warnings = list(result.problems) + _found_warnings(result.found_fraction,
+                                                           result.problems)
     files = {"tracks": write_csv_atomic(folder / TRACKS, tracks)}
     run_info = {
         "schema": RUN_SCHEMA,

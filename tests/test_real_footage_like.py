@@ -816,4 +816,4 @@ def test_a_marker_placed_too_far_from_where_it_is_is_named_with_its_place(tmp_pa
     result = track(open_frames(tmp_path, 30.0), parse_markers(["dot=red@70,80"]))
     assert not result.tracks["dot_ok"].any()
     said = [p for p in result.problems if "never within reach" in p]
-    assert len(said) == 1 and "--marker dot=COLOUR@100,80" in said[0], result.problems
+    assert len(said) == 1 and "--marker dot=0@100,80" in said[0], result.problems

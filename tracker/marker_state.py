@@ -220,7 +220,8 @@ class MarkerState:
         return (f"marker {self.spec.name} was never within reach of its place ({px:.0f}, "
                 f"{py:.0f}): the nearest blob of its colour and size was at ({x:.0f}, {y:.0f}),"
                 f" {d:.0f} px off, and a place is taken within the blob's diameter + 8 px. "
-                f"If that is the marker, say --marker {self.spec.name}=COLOUR@{x:.0f},{y:.0f}")
+                f"If that is the marker, say --marker {self.spec.name}="
+                f"{self.spec.tone or f'{self.spec.hue_deg:g}'}@{x:.0f},{y:.0f}")
 
     @property
     def area(self) -> float | None:
