@@ -47,7 +47,8 @@ def track(video: str | os.PathLike, markers: Mapping[str, str | float] | None = 
           start_s: float | None = None, end_s: float | None = None,
           roi: tuple[int, int, int, int] | None = None, window_s: float | None = None,
           fill_gaps: int = 0, on_frame: Callable[[int], None] | None = None,
-          overwrite: bool = False, table_format: str = "csv") -> RunResult:
+          overwrite: bool = False, table_format: str = "csv",
+          rolling_shutter_ms: float = 0.0) -> RunResult:
     """Track ``video`` into a run folder and return the run (``.tracks``, ``.kinematics``).
 
     ``markers`` maps names to colours as ``--marker`` takes them (``{"A": "green"}``,
@@ -60,6 +61,8 @@ def track(video: str | os.PathLike, markers: Mapping[str, str | float] | None = 
     ``--window-s`` and ``--fill-gaps``; ``on_frame(index)`` is called after each frame.
     ``overwrite`` replaces the run of another video that ``out`` holds (otherwise refused).
     ``table_format="parquet"`` also writes the tables as Parquet beside the CSV files.
+    ``rolling_shutter_ms`` is the command's ``--rolling-shutter-ms``: a rolling shutter's
+    readout time (top row to bottom row), for the kinematics.
 
     Raises :class:`~cranktrack.errors.CranktrackError` with one sentence on bad input.
     """
@@ -90,7 +93,8 @@ def track(video: str | os.PathLike, markers: Mapping[str, str | float] | None = 
     return track_run(video, folder, known_length, _specs(markers), window_s=window_s,
                      fill_gaps_frames=fill_gaps, calibration=plane, span=span,
                      roi=None if roi is None else Roi(*roi), on_frame=on_frame,
-                     overwrite=overwrite, table_format=table_format)
+                     overwrite=overwrite, table_format=table_format,
+                     readout_s=float(rolling_shutter_ms) / 1e3)
 
 
 def open_run(folder: str | os.PathLike) -> RunResult:

@@ -43,6 +43,10 @@ def _positive(text: str) -> float:
     return _number(text, whole=False, zero_ok=False)
 
 
+def _nonnegative(text: str) -> float:
+    return _number(text, whole=False, zero_ok=True)
+
+
 def _count(text: str) -> int:
     return int(_number(text, whole=True, zero_ok=True))
 
@@ -230,6 +234,11 @@ def _track_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--calibration", metavar="PLANE.json",
                    help="plane calibration from `cranktrack calibrate plane`; with it, "
                         "--known-length is only checked")
+    p.add_argument("--rolling-shutter-ms", type=_nonnegative, default=0.0, metavar="MS",
+                   help="the camera reads its rows one after another, over this many ms from "
+                        "the top row to the bottom one (a phone or webcam: often 5-30): the "
+                        "kinematics take each marker back to its frame's time (default 0: "
+                        "all rows at once)")
     p.add_argument("--resume", action="store_true",
                    help="continue a run in --out that was interrupted (Ctrl-C)")
     p.add_argument("--overwrite", action="store_true",

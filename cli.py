@@ -250,6 +250,7 @@ def _track(args: argparse.Namespace, video: Path, out: Path):
                          resume=getattr(args, "resume", False), on_start=start,
                          overwrite=getattr(args, "overwrite", False),
                          table_format=getattr(args, "format", "csv"),
+                         readout_s=getattr(args, "rolling_shutter_ms", 0.0) / 1e3,
                          on_frame=lambda i: bar.update(1),
                          on_stage=lambda stage: bar.set_description_str(f"track: {stage}"))
 

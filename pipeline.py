@@ -35,6 +35,7 @@ from .files import (
     write_text_atomic,
 )
 from .kinematics.measured import LINK_JUMP_SIGMA, LINK_WANDER, measure_kinematics
+from .kinematics.rolling_shutter import at_frame_times
 from .run_folder import (
     CALIBRATION,
     COMPARE_FIT,
@@ -126,7 +127,7 @@ MIN_FRAME_PX = 16
 def _check_before_tracking(source: FrameSource, specs: tuple[MarkerSpec, ...],
                            known_length: tuple[str, str, float] | None,
                            calibration: PlaneCalibration | None,
-                           window_s: float | None) -> None:
+                           window_s: float | None, readout_s: float = 0.0) -> None:
     """What can be refused before a single frame is tracked, so a long video is not
     tracked only to fail at its end."""
     width, height, video = source.width, source.height, source.path
@@ -155,6 +156,12 @@ def _check_before_tracking(source: FrameSource, specs: tuple[MarkerSpec, ...],
         # ω and v_B need a window's worth of frames each side of a row: none would have one.
         raise CranktrackError(f"--window-s {window_s:g} is more than half the video's "
                               f"{source.duration_s:.3g} s; choose a window of a few frames")
+    if readout_s < 0 or (readout_s > 0 and source.nominal_fps
+                         and readout_s >= 1.0 / source.nominal_fps):
+        raise CranktrackError(
+            f"--rolling-shutter-ms {readout_s * 1e3:g} does not fit in one frame of "
+            f"{video} ({1e3 / (source.nominal_fps or 1.0):.3g} ms): give the time from its "
+            "top row to its bottom row, from 0 up to less than a frame")
 
 
 def track_run(
@@ -174,6 +181,7 @@ def track_run(
     on_stage: Callable[[str], None] | None = None,
     overwrite: bool = False,
     table_format: str = "csv",
+    readout_s: float = 0.0,
 ) -> RunResult:
     """Track ``video`` into ``out_dir`` (only the frames within ``span``, and only the
     part of each frame within ``roi``, if given).
@@ -195,11 +203,14 @@ def track_run(
     ``overwrite`` replaces the run of another video that ``out_dir`` holds (without it,
     such a folder is refused). ``table_format="parquet"`` also writes the tracks and
     kinematics as Parquet (``tracks.parquet``, ``kinematics.parquet``) beside the CSVs.
+    ``readout_s`` > 0 is a rolling shutter's readout time (s, top row to bottom row):
+    the kinematics then take each marker's fix back from its row's time to its frame's
+    (:func:`.kinematics.rolling_shutter.at_frame_times`); tracks.csv keeps what was seen.
     """
     if table_format not in ("csv", "parquet"):
         raise CranktrackError(f"unknown table format {table_format!r}; use csv or parquet")
     source = open_frames(video, fps=fps)
-    _check_before_tracking(source, specs, known_length, calibration, window_s)
+    _check_before_tracking(source, specs, known_length, calibration, window_s, readout_s)
     folder = ensure_dir(out_dir)
     with claimed(folder):
         if not resume:
@@ -207,7 +218,7 @@ def track_run(
         try:
             result = _track_into(folder, source, video, known_length, specs, window_s,
                                  fill_gaps_frames, calibration, resume, on_start, on_frame,
-                                 span, roi, on_stage or (lambda stage: None))
+                                 span, roi, on_stage or (lambda stage: None), readout_s)
             if table_format == "parquet":
                 result.files["tracks_parquet"] = write_parquet_atomic(
                     folder / TRACKS_PARQUET, result.tracks)
@@ -265,7 +276,8 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
                 on_start: Callable[[int | None], None] | None,
                 on_frame: Callable[[int], None] | None, span: Span | None = None,
                 roi: Roi | None = None,
-                on_stage: Callable[[str], None] = lambda stage: None) -> RunResult:
+                on_stage: Callable[[str], None] = lambda stage: None,
+                readout_s: float = 0.0) -> RunResult:
     """:func:`track_run`'s work, in a folder it holds."""
     if on_start:
         on_start(source.expected_frames)
@@ -308,7 +320,8 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
                      "span": None if span is None or not span.given else
                      {"start": span.start, "end": span.end if np.isfinite(span.end) else None,
                       "unit": span.unit},
-                     **({} if roi is None else {"roi": [roi.x, roi.y, roi.w, roi.h]})},
+                     **({} if roi is None else {"roi": [roi.x, roi.y, roi.w, roi.h]}),
+                     **({} if not readout_s else {"rolling_shutter_readout_s": readout_s})},
         "warnings": warnings,
     }
     files["run"] = write_json_atomic(folder / RUN_INFO, run_info)
@@ -335,7 +348,9 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
         files["tracks"] = write_csv_atomic(folder / TRACKS, tracks)
         if {"A", "B", "C"} <= set(names):
             on_stage("kinematics")
-            kinematics, info = measure_kinematics(tracks, window_s=window_s,
+            timed = (tracks if not readout_s
+                     else at_frame_times(tracks, readout_s, source.height, names))
+            kinematics, info = measure_kinematics(timed, window_s=window_s,
                                                   scale_sigma=cal.scale_sigma)
             warnings += _link_warnings(info.links)
             if info.repeated_frames:

@@ -124,6 +124,7 @@ def test_bad_known_length(small_h264, tmp_path):
     (["--known-length", "A-Q=5"], "Q, not among the tracked markers A, B, C"),
     (["--marker", "B=400"], "outside 0–360°"),
     (["--known-length", "A-C=160.8", "--window-s", "100"], "more than half the video"),
+    (["--known-length", "A-C=160.8", "--rolling-shutter-ms", "40"], "does not fit in one frame"),
 ])
 def test_bad_values_are_refused_before_tracking(small_h264, tmp_path, capsys, options, says):
     assert main(["track", str(small_h264.video), "--out", str(tmp_path / "r"), *options]) == 1

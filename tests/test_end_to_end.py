@@ -68,3 +68,18 @@ def test_calibrated_scale_matches_the_render(run, small_h264):
     scene = json.loads(small_h264.scene.read_text())
     assert run.calibration.quality["mm_per_px"] == pytest.approx(1 / scene["camera"]["px_per_mm"],
                                                       rel=2e-3)
+
+
+def test_a_rolling_shutter_readout_reaches_the_kinematics_only(run, small_h264, tmp_path):
+    # The render reads all its rows at once, so the truth here is only where the option
+    # goes: the kinematics move (B is taken back by up to 3.5 ms of its motion), the
+    # tracks stay as seen, and run.json records it.
+    import json
+
+    rolled = track_run(small_h264.video, tmp_path / "rolled", ("A", "C", 160.8),
+                       readout_s=0.0035)
+    pd.testing.assert_frame_equal(rolled.tracks, run.tracks)
+    moved = np.abs(rolled.kinematics["theta_deg"] - run.kinematics["theta_deg"])
+    assert 0 < np.nanmax(moved) < THETA_BOUND_DEG
+    info = json.loads((tmp_path / "rolled" / "run.json").read_text())
+    assert info["tracking"]["rolling_shutter_readout_s"] == 0.0035
