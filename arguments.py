@@ -256,7 +256,8 @@ def _track_command(sub: argparse._SubParsersAction) -> None:
 
 
 def _calibrate_command(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("calibrate", help="camera intrinsics, or the mechanism's plane")
+    p = sub.add_parser("calibrate", help="camera intrinsics, the mechanism's plane, or a "
+                                         "rolling shutter's readout")
     cal_sub = p.add_subparsers(dest="what", required=True, metavar="WHAT")
     q = cal_sub.add_parser("camera", help="intrinsics and lens distortion from board photos")
     q.add_argument("images", nargs="+", help="photos of the board in many poses")
@@ -270,6 +271,15 @@ def _calibrate_command(sub: argparse._SubParsersAction) -> None:
     q.add_argument("--points", help="CSV of 4+ points: x_px, y_px, x_mm, y_mm (instead of a "
                                     "board)")
     q.add_argument("--out", required=True, help="plane calibration file to write (JSON)")
+    q = cal_sub.add_parser("readout", help="a rolling shutter's readout time, from a run in "
+                                           "which a marker flies freely (a tossed ball)")
+    q.add_argument("run", help="run folder written by `cranktrack track`")
+    q.add_argument("--marker", required=True, metavar="NAME",
+                   help="the marker in free flight (e.g. ball)")
+    q.add_argument("--start", type=float, metavar="S",
+                   help="the flight starts at this time, s (default: the first fix)")
+    q.add_argument("--end", type=float, metavar="S",
+                   help="the flight ends at this time, s (default: the last fix)")
 
 
 def _compare_command(sub: argparse._SubParsersAction) -> None:

@@ -569,6 +569,37 @@ def cmd_calibrate_plane(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_calibrate_readout(args: argparse.Namespace) -> int:
+    from .calibration.readout import readout_from_flight
+    from .run_folder import RUN_INFO, RunFolder
+
+    run = RunFolder(args.run)
+    tracks = run.read_tracks()
+    name = args.marker
+    if f"{name}_ok" not in tracks.columns:
+        markers = sorted(c[:-3] for c in tracks.columns if c.endswith("_ok"))
+        raise CranktrackError(f"{run / 'tracks.csv'} has no marker {name}; it has "
+                              + ", ".join(markers))
+    height = ((run.read_json(RUN_INFO) or {}).get("source") or {}).get("height")
+    if not height:
+        raise CranktrackError(f"{run / RUN_INFO} does not say the frame's height; track the "
+                              "video again with this version")
+    t = tracks["t_s"].to_numpy(float)
+    use = tracks[f"{name}_ok"].to_numpy(bool, copy=True)
+    use &= t >= (args.start if args.start is not None else -np.inf)
+    use &= t <= (args.end if args.end is not None else np.inf)
+    fit = readout_from_flight(t[use], tracks.loc[use, [f"{name}_x_px", f"{name}_y_px"]]
+                              .to_numpy(float), int(height))
+    print(f"{name} in free flight, {fit.fixes} fixes: a readout of "
+          f"{fit.readout_s * 1e3:.2f} ± {fit.readout_sigma_s * 1e3:.2f} ms over "
+          f"{fit.height_px} rows; residual {fit.residual_px:.3f} px a coordinate "
+          f"({fit.residual_global_px:.3f} with all rows at the frame's time), acceleration "
+          f"{fit.acceleration_px_s2:.1f} px/s² ({fit.acceleration_global_px_s2:.1f})")
+    if fit.readout_s > 0:
+        print(f"track this camera with: --rolling-shutter-ms {fit.readout_s * 1e3:.2f}")
+    return 0
+
+
 def cmd_sweep(args: argparse.Namespace) -> int:
     from .report.sweep import actuator_curve_sweep, linkage_sweep, max_work_sweep
 
@@ -622,6 +653,7 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "track": cmd_track, "compare": cmd_compare, "fit": cmd_fit, "sweep": cmd_sweep,
     "batch": cmd_batch, "view": cmd_view, "demo": cmd_demo,
     "calibrate camera": cmd_calibrate_camera, "calibrate plane": cmd_calibrate_plane,
+    "calibrate readout": cmd_calibrate_readout,
 }
 
 

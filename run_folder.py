@@ -87,6 +87,20 @@ class RunFolder:
         except (OSError, ValueError):
             return None
 
+    def read_tracks(self) -> pd.DataFrame:
+        """The tracks table (pixels, and plane mm where a scale was given)."""
+        path = self.path / TRACKS
+        if not path.is_file():
+            raise CranktrackError(f"{path} does not exist; run `cranktrack track VIDEO --out "
+                                  f"{self.path}` first")
+        try:
+            tracks = pd.read_csv(path)
+        except (pd.errors.ParserError, UnicodeDecodeError, pd.errors.EmptyDataError) as e:
+            raise CranktrackError(f"{path} is not a readable CSV table ({e})") from None
+        if "t_s" not in tracks.columns:
+            raise CranktrackError(f"{path} has no t_s column; is it a cranktrack tracks table?")
+        return tracks
+
     def read_kinematics(self) -> pd.DataFrame:
         """The kinematics table, checked to be a cranktrack kinematics table."""
         path = self.path / KINEMATICS

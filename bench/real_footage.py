@@ -38,12 +38,13 @@ import cv2
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
-from scipy.optimize import least_squares, minimize_scalar
+from scipy.optimize import least_squares
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import CACHE
 from pendulum import G, plane_swing, sphere_swing
 
+from cranktrack.calibration.readout import readout_from_flight
 from cranktrack.tracker.markers import parse_markers
 from cranktrack.tracker.survey import frame_and_later, survey
 from cranktrack.tracker.track import track
@@ -236,29 +237,6 @@ def parabola_g(t: np.ndarray, xy: np.ndarray, px_per_m: float
     return float(np.hypot(*(2 * coef[0])) / px_per_m), xy - X @ coef
 
 
-#: The largest time between one row's exposure and the next's tried (s per row): a
-#: readout of 96 ms over 480 rows, three frames at 30 fps.
-ROLLING_MAX_S = 2e-4
-
-
-def rolling_parabola(t: NDArray, xy: NDArray) -> tuple[float, float, NDArray]:
-    """A parabola seen by a rolling shutter: each image row is exposed ρ seconds after
-    the row above it, so the fix at image row y was taken at t + ρ·y, not at the
-    frame's time t. Quadratics in that time are fitted to x and y for the ρ that
-    leaves the least squares. Returns ρ (s per row), the acceleration's magnitude
-    (px/s²) and the residual (px, per frame and axis)."""
-    def fitted(rho: float) -> tuple[NDArray, NDArray]:
-        te = t + rho * xy[:, 1]
-        X = np.vander(te - te.mean(), 3)
-        coef = np.linalg.lstsq(X, xy, rcond=None)[0]
-        return coef, xy - X @ coef
-
-    best = minimize_scalar(lambda rho: float(np.sum(fitted(rho)[1] ** 2)),
-                           bounds=(-ROLLING_MAX_S, ROLLING_MAX_S), method="bounded")
-    coef, resid = fitted(float(best.x))
-    return float(best.x), float(np.hypot(*(2 * coef[0]))), resid
-
-
 def perspective_parabola(t: NDArray, xy: NDArray) -> NDArray:
     """The residual (px, per frame and axis) of a flight in a plane seen through a
     pinhole: the plane's x linear and y quadratic in t, mapped by a homography, make
@@ -441,19 +419,21 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
         # A camera that reads its rows one after another (a rolling shutter) takes
         # the ball lower in the frame later than the frame's time says: one more
         # parameter, fitted to our track and, apart, to the peer's clicks.
-        rho, acc, rolled = rolling_parabola(t_flight, flight)
-        rho_peer, acc_peer, rolled_peer = rolling_parabola(t, theirs)
         height = open_frames(video, fps).height
-        dof = np.sqrt(rolled.size / (rolled.size - 7))  # 7 parameters fitted
+        rolled = readout_from_flight(t_flight, flight, height)
+        rolled_peer = readout_from_flight(t, theirs, height)
+        acc, dof = rolled.acceleration_px_s2, np.sqrt(flight.size / (flight.size - 7))
         g_stick = f", {acc / per_m:.3f} with the stick's" if ends is not None else ""
-        print(f"  with a rolling shutter (row y taken ρ·y after the top row; ρ fitted): "
-              f"ρ = {rho * 1e6:.1f} µs a row ({rho * height * 1e3:.1f} ms over the "
-              f"{height} rows), and {rho_peer * 1e6:.1f} from the peer's clicks alone; "
-              f"g = {acc / scale:.3f} m/s² ({100 * (acc / scale / 9.80 - 1):+.1f} %) with "
-              f"the peer's scale{g_stick}, {acc_peer / scale:.3f} from the peer's clicks; "
-              f"residual RMS {np.sqrt(np.mean(rolled**2)):.2f} px ours, "
-              f"{np.sqrt(np.mean(rolled_peer**2)):.2f} px the peer's; ±1σ coverage "
-              f"{100 * np.mean(dof * np.abs(rolled) <= sigma[:, None]):.0f} %")
+        print(f"  with a rolling shutter (`cranktrack calibrate readout`: row y taken ρ·y "
+              f"after the top row): a readout of {rolled.readout_s * 1e3:.2f} ± "
+              f"{rolled.readout_sigma_s * 1e3:.2f} ms over the {height} rows, and "
+              f"{rolled_peer.readout_s * 1e3:.2f} ± {rolled_peer.readout_sigma_s * 1e3:.2f} "
+              f"from the peer's clicks alone; g = {acc / scale:.3f} m/s² "
+              f"({100 * (acc / scale / 9.80 - 1):+.1f} %) with the peer's scale{g_stick}, "
+              f"{rolled_peer.acceleration_px_s2 / scale:.3f} from the peer's clicks; residual "
+              f"RMS {rolled.residual_px:.2f} px ours, {rolled_peer.residual_px:.2f} px the "
+              f"peer's; ±1σ coverage "
+              f"{100 * np.mean(dof * np.abs(rolled.residual) <= sigma[:, None]):.0f} %")
         # A residual that is smooth from frame to frame is the parabola's own error
         # (perspective, drag), not tracking noise; the lag-1 correlation says which.
         r1 = [float(np.corrcoef(resid[:-1, i], resid[1:, i])[0, 1]) for i in range(2)]

@@ -8,9 +8,10 @@ crank's points of one frame are not of one instant: the angle at A and the rigid
 links come out bent where the crank moves fast.
 
 Tracker's public ball toss (a webcam, 480 rows at 30 fps) shows it: a parabola
-whose time is taken per row fits with ρ = 14.6–15.0 µs a row (7 ms over the frame),
-14.1–14.2 µs from the Tracker user's own clicks alone, and gives g = 9.86–9.89 m/s²
-where the frame's time gives 10.04–10.07 (``bench/real_footage.py``).
+whose time is taken per row fits with a readout of 6.7–6.9 ± 1.0 ms over the frame
+(6.6 ± 1.7 from the Tracker user's own clicks alone), and gives g = 9.87 m/s² with
+the metre stick's scale where the frame's time gives 10.04
+(:mod:`..calibration.readout`, ``bench/real_footage.py``).
 """
 
 from __future__ import annotations

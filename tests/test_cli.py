@@ -202,3 +202,24 @@ def test_track_shows_progress_on_a_terminal_and_none_with_quiet(tmp_path):
     assert "compare: fit" in shown and "compare: report" in shown and "wrote" in shown
     quiet = _on_a_terminal("compare", str(tmp_path / "r1"), "--quiet")
     assert "compare:" not in quiet and "wrote" in quiet
+
+
+def test_calibrate_readout_reads_a_runs_flight_and_says_what_to_type(tmp_path, capsys):
+    import json
+
+    import numpy as np
+    from test_calibration import _drawn_flight
+
+    t, xy = _drawn_flight(0.007, np.random.default_rng(2))
+    run = tmp_path / "toss"
+    run.mkdir()
+    pd.DataFrame({"frame": np.arange(len(t)), "t_s": t, "ball_x_px": xy[:, 0],
+                  "ball_y_px": xy[:, 1], "ball_sigma_px": 0.05, "ball_ok": True,
+                  "ball_status": "ok"}).to_csv(run / "tracks.csv", index=False)
+    (run / "run.json").write_text(json.dumps({"source": {"height": 480}}))
+    assert main(["calibrate", "readout", str(run), "--marker", "ball"]) == 0
+    out = capsys.readouterr().out
+    assert "--rolling-shutter-ms 7.0" in out or "--rolling-shutter-ms 6.9" in out, out
+    assert main(["calibrate", "readout", str(run), "--marker", "bob"]) == 1
+    err = capsys.readouterr().err
+    assert "has no marker bob; it has ball" in err and err.count("\n") == 1
