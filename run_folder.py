@@ -87,36 +87,33 @@ class RunFolder:
         except (OSError, ValueError):
             return None
 
-    def read_tracks(self) -> pd.DataFrame:
-        """The tracks table (pixels, and plane mm where a scale was given)."""
-        path = self.path / TRACKS
+    def _read_table(self, name: str, options: str, needed: set[str], what: str
+                    ) -> pd.DataFrame:
+        """The CSV table ``name`` of the folder, with the columns ``needed``; ``options``
+        are those `cranktrack track` needs to write it, ``what`` names the table."""
+        path = self.path / name
         if not path.is_file():
             raise CranktrackError(f"{path} does not exist; run `cranktrack track VIDEO --out "
-                                  f"{self.path}` first")
+                                  f"{self.path}{options}` first")
         try:
-            tracks = pd.read_csv(path)
+            table = pd.read_csv(path)
         except (pd.errors.ParserError, UnicodeDecodeError, pd.errors.EmptyDataError) as e:
             raise CranktrackError(f"{path} is not a readable CSV table ({e})") from None
-        if "t_s" not in tracks.columns:
-            raise CranktrackError(f"{path} has no t_s column; is it a cranktrack tracks table?")
-        return tracks
+        missing = needed - set(table.columns)
+        if missing:
+            raise CranktrackError(f"{path} lacks the column(s) {sorted(missing)}; is it a "
+                                  f"cranktrack {what} table?")
+        return table
+
+    def read_tracks(self) -> pd.DataFrame:
+        """The tracks table (pixels, and plane mm where a scale was given)."""
+        return self._read_table(TRACKS, "", {"frame", "t_s"}, "tracks")
 
     def read_kinematics(self) -> pd.DataFrame:
         """The kinematics table, checked to be a cranktrack kinematics table."""
-        path = self.path / KINEMATICS
-        if not path.is_file():
-            raise CranktrackError(f"{path} does not exist; run `cranktrack track VIDEO --out "
-                                  f"{self.path} --known-length A-C=MM` first")
-        try:
-            measured = pd.read_csv(path)
-        except (pd.errors.ParserError, UnicodeDecodeError, pd.errors.EmptyDataError) as e:
-            raise CranktrackError(f"{path} is not a readable CSV table ({e})") from None
-        missing = {"frame", "t_s", "theta_deg", "theta_deg_sigma", "L3_mm"} - set(
-            measured.columns)
-        if missing:
-            raise CranktrackError(f"{path} lacks the column(s) {sorted(missing)}; is it a "
-                                  "cranktrack kinematics table?")
-        return measured
+        return self._read_table(KINEMATICS, " --known-length A-C=MM",
+                                {"frame", "t_s", "theta_deg", "theta_deg_sigma", "L3_mm"},
+                                "kinematics")
 
 
 def _alive(pid: int) -> bool:
