@@ -570,32 +570,18 @@ def cmd_calibrate_plane(args: argparse.Namespace) -> int:
 
 
 def cmd_calibrate_readout(args: argparse.Namespace) -> int:
-    from .calibration.readout import readout_from_flight
-    from .run_folder import RUN_INFO, RunFolder
+    from .calibration.readout import readout_from_run
 
-    run = RunFolder(args.run)
-    tracks = run.read_tracks()
-    name = args.marker
-    if f"{name}_ok" not in tracks.columns:
-        markers = sorted(c[:-3] for c in tracks.columns if c.endswith("_ok"))
-        raise CranktrackError(f"{run / 'tracks.csv'} has no marker {name}; it has "
-                              + ", ".join(markers))
-    height = ((run.read_json(RUN_INFO) or {}).get("source") or {}).get("height")
-    if not height:
-        raise CranktrackError(f"{run / RUN_INFO} does not say the frame's height; track the "
-                              "video again with this version")
-    t = tracks["t_s"].to_numpy(float)
-    use = tracks[f"{name}_ok"].to_numpy(bool, copy=True)
-    use &= t >= (args.start if args.start is not None else -np.inf)
-    use &= t <= (args.end if args.end is not None else np.inf)
-    fit = readout_from_flight(t[use], tracks.loc[use, [f"{name}_x_px", f"{name}_y_px"]]
-                              .to_numpy(float), int(height))
-    print(f"{name} in free flight, {fit.fixes} fixes: a readout of "
+    fit = readout_from_run(args.run, args.marker, args.start, args.end)
+    print(f"{args.marker} in free flight, {fit.fixes} fixes: a readout of "
           f"{fit.readout_s * 1e3:.2f} ± {fit.readout_sigma_s * 1e3:.2f} ms over "
           f"{fit.height_px} rows; residual {fit.residual_px:.3f} px a coordinate "
           f"({fit.residual_global_px:.3f} with all rows at the frame's time), acceleration "
           f"{fit.acceleration_px_s2:.1f} px/s² ({fit.acceleration_global_px_s2:.1f})")
-    if fit.readout_s > 0:
+    if fit.readout_s <= 2.0 * fit.readout_sigma_s:
+        print("that is within 2σ of reading all rows at once: no --rolling-shutter-ms "
+              "needed (or the flight chosen is not free: see --start and --end)")
+    else:
         print(f"track this camera with: --rolling-shutter-ms {fit.readout_s * 1e3:.2f}")
     return 0
 
