@@ -80,7 +80,9 @@ RIG_CHECKS = {
                      "plane`)",
     "tilt_vertical_deg": "square the camera to the rig's plane, or calibrate the plane",
     "tilt_horizontal_deg": "square the camera to the rig's plane, or calibrate the plane",
-    "readout_s": "the camera's rolling shutter: use a global shutter or a shorter readout",
+    "readout_s": "the camera's rolling shutter: track again with the readout found "
+                 "(`--rolling-shutter-ms`, measured apart with `cranktrack calibrate readout` "
+                 "on a tossed ball), or use a global shutter",
     "pivot_amp_mm": "fix the bench or the pivot's mount",
 }
 
