@@ -570,7 +570,7 @@ def cmd_calibrate_plane(args: argparse.Namespace) -> int:
 
 
 def cmd_calibrate_readout(args: argparse.Namespace) -> int:
-    from .calibration.readout import readout_from_run
+    from .pipeline import readout_from_run
 
     fit = readout_from_run(args.run, args.marker, args.start, args.end)
     print(f"{args.marker} in free flight, {fit.fixes} fixes: a readout of "

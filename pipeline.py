@@ -26,6 +26,7 @@ from .calibration.plane import (
     add_plane_coordinates,
     align_to_markers,
 )
+from .calibration.readout import ReadoutFit, readout_from_flight
 from .errors import CranktrackError, RunInterrupted
 from .files import (
     ensure_dir,
@@ -52,6 +53,7 @@ from .run_folder import (
     TRACKER_STATE,
     TRACKS,
     TRACKS_PARQUET,
+    RunFolder,
     claimed,
     clear_for,
     record_step,
@@ -234,6 +236,36 @@ def track_run(
             raise
         (folder / TRACKER_STATE).unlink(missing_ok=True)
         return result
+
+
+def readout_from_run(run: str | os.PathLike, marker: str, start_s: float | None = None,
+                     end_s: float | None = None) -> ReadoutFit:
+    """A rolling shutter's readout from ``marker``'s free flight in the run folder ``run``
+    (:func:`.calibration.readout.readout_from_flight` of its fixes in ``tracks.csv``,
+    with the frame's height from ``run.json``), between ``start_s`` and ``end_s`` (s;
+    the whole run by default): what ``cranktrack calibrate readout`` prints.
+
+    Raises
+    ------
+    CranktrackError
+        The run has no such marker, does not say the frame's height, or too few fixes.
+    """
+    folder = RunFolder(run)
+    tracks = folder.read_tracks()
+    if f"{marker}_ok" not in tracks.columns:
+        markers = sorted(c[:-3] for c in tracks.columns if c.endswith("_ok"))
+        raise CranktrackError(f"{folder / TRACKS} has no marker {marker}; it has "
+                              + ", ".join(markers))
+    height = ((folder.read_json(RUN_INFO) or {}).get("source") or {}).get("height")
+    if not height:
+        raise CranktrackError(f"{folder / RUN_INFO} does not say the frame's height; track "
+                              "the video again with this version")
+    t = tracks["t_s"].to_numpy(float)
+    use = tracks[f"{marker}_ok"].to_numpy(bool, copy=True)
+    use &= t >= (-np.inf if start_s is None else start_s)
+    use &= t <= (np.inf if end_s is None else end_s)
+    xy = tracks.loc[use, [f"{marker}_x_px", f"{marker}_y_px"]].to_numpy(float)
+    return readout_from_flight(t[use], xy, int(height))
 
 
 def _found_warnings(found_fraction: dict[str, float], problems: list[str]) -> list[str]:

@@ -12,7 +12,6 @@ user's own clicks (``bench/real_footage.py``).
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -89,34 +88,3 @@ def readout_from_flight(t_s: NDArray, xy_px: NDArray, height_px: int) -> Readout
     return ReadoutFit(rho * height_px, sigma * height_px, int(height_px), len(t),
                       float(np.sqrt(np.mean(resid**2))), float(np.sqrt(np.mean(resid0**2))),
                       float(np.hypot(*(2 * coef[0]))), float(np.hypot(*(2 * coef0[0]))), resid)
-
-
-def readout_from_run(run: str | os.PathLike, marker: str, start_s: float | None = None,
-                     end_s: float | None = None) -> ReadoutFit:
-    """:func:`readout_from_flight` of ``marker``'s fixes in the run folder ``run``
-    (``tracks.csv``, and the frame's height from ``run.json``), between ``start_s`` and
-    ``end_s`` (s; the whole run by default).
-
-    Raises
-    ------
-    CranktrackError
-        The run has no such marker, does not say the frame's height, or too few fixes.
-    """
-    from ..run_folder import RUN_INFO, TRACKS, RunFolder
-
-    folder = RunFolder(run)
-    tracks = folder.read_tracks()
-    if f"{marker}_ok" not in tracks.columns:
-        markers = sorted(c[:-3] for c in tracks.columns if c.endswith("_ok"))
-        raise CranktrackError(f"{folder / TRACKS} has no marker {marker}; it has "
-                              + ", ".join(markers))
-    height = ((folder.read_json(RUN_INFO) or {}).get("source") or {}).get("height")
-    if not height:
-        raise CranktrackError(f"{folder / RUN_INFO} does not say the frame's height; track "
-                              "the video again with this version")
-    t = tracks["t_s"].to_numpy(float)
-    use = tracks[f"{marker}_ok"].to_numpy(bool, copy=True)
-    use &= t >= (-np.inf if start_s is None else start_s)
-    use &= t <= (np.inf if end_s is None else end_s)
-    xy = tracks.loc[use, [f"{marker}_x_px", f"{marker}_y_px"]].to_numpy(float)
-    return readout_from_flight(t[use], xy, int(height))
