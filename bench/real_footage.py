@@ -340,24 +340,58 @@ def inspect_rank(video: Path, fps: float | None, frame: int, xy: tuple[float, fl
     return (int(near[0]) + 1 if len(near) else None), len(table)
 
 
-def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
-    """Track one clip, print its figures, and return those a later line compares
-    across clips (a drag fall's terminal speed, ours and the peer's, m/s)."""
+@dataclass(frozen=True)
+class Footage:
+    """A clip's files: its project, the project's own video, the video tracked (the
+    project's, or :attr:`Clip.video`) at ``fps`` (None: its own clock), the peer's
+    clicks by frame of that video, and the peer's scale (px/m)."""
+
+    trz: Path
+    project_video: Path
+    video: Path
+    fps: float | None
+    clicks: dict[int, tuple[float, float]]
+    scale: float
+
+
+def footage(repo: Path, clip: Clip) -> Footage | None:
+    """The files of ``clip`` in ``repo`` (extracted to the cache), or None, said, where
+    one is not there."""
     trz = _extract(repo, clip.trz)
     if trz is None:
         print(f"{clip.trz}: not in {repo}; skipped")
-        return {}
+        return None
     video, fps, clicks, scale = peer_project(trz, clip.mass, clip.trk)
+    if not clip.video:
+        return Footage(trz, video, video, fps, clicks, scale)
+    other = _extract(repo, clip.video)
+    if other is None:
+        print(f"{clip.video}: not in {repo}; skipped")
+        return None
+    return Footage(trz, video, other, None,
+                   {clip.first + clip.step * k: xy for k, xy in clicks.items()}, scale)
+
+
+def add_clip_paths(ap: argparse.ArgumentParser) -> None:
+    """The two checkouts the real-footage benches read, as options of ``ap``."""
+    ap.add_argument("tracker", nargs="?", type=Path,
+                    help="a checkout of OpenSourcePhysics/tracker, or its git directory")
+    ap.add_argument("--pendulum", type=Path,
+                    help="a checkout of juangomez177/Pendulum_Oscillatory_Motion, or its "
+                         "git directory")
+
+
+def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
+    """Track one clip, print its figures, and return those a later line compares
+    across clips (a drag fall's terminal speed, ours and the peer's, m/s)."""
+    found = footage(repo, clip)
+    if found is None:
+        return {}
+    trz, video, fps, clicks, scale = found.trz, found.video, found.fps, found.clicks, found.scale
     if clip.video:
-        other = _extract(repo, clip.video)
-        if other is None:
-            print(f"{clip.video}: not in {repo}; skipped")
-            return {}
         print(f"\n{clip.video}: the footage of {clip.trz} at its own clock; the peer's "
               f"frame k is frame {clip.first} + {clip.step}·k here "
-              f"(mean |difference| {_same_pixels(video, other, clip)})")
-        video, fps = other, None
-        clicks = {clip.first + clip.step * k: xy for k, xy in clicks.items()}
+              f"(mean |difference| {_same_pixels(found.project_video, video, clip)})")
     tab, name, track_s, decode_s = timed_track(video, fps, clip.marker)
     peer_frames = np.array(sorted(clicks))
     rows = tab.set_index("frame").loc[peer_frames]
@@ -593,11 +627,7 @@ def run_pendulum(repo: Path) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("tracker", nargs="?", type=Path,
-                    help="a checkout of OpenSourcePhysics/tracker, or its git directory")
-    ap.add_argument("--pendulum", type=Path,
-                    help="a checkout of juangomez177/Pendulum_Oscillatory_Motion, or its "
-                         "git directory")
+    add_clip_paths(ap)
     args = ap.parse_args()
     given = [p for p in (args.tracker, args.pendulum) if p is not None and p.exists()]
     if not given:

@@ -108,29 +108,9 @@ def run(label: str, video: Path, fps: float | None, markers: list[str], seeds: i
         print("  " + compare(spec.name, base, others))
 
 
-def tracker_clips(repo: Path) -> Iterator[tuple[str, Path, float | None, str]]:
-    """(label, video, fps, marker) of each of ``real_footage.CLIPS`` found in ``repo``."""
-    for clip in real_footage.CLIPS:
-        trz = real_footage._extract(repo, clip.trz)
-        if trz is None:
-            print(f"{clip.trz}: not in {repo}; skipped")
-            continue
-        video, fps, _, _ = real_footage.peer_project(trz, clip.mass, clip.trk)
-        if clip.video:
-            other = real_footage._extract(repo, clip.video)
-            if other is None:
-                continue
-            video, fps = other, None
-        yield f"{clip.trz} ({video.name})", video, fps, clip.marker
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("tracker", nargs="?", type=Path,
-                    help="a checkout of OpenSourcePhysics/tracker, or its git directory")
-    ap.add_argument("--pendulum", type=Path,
-                    help="a checkout of juangomez177/Pendulum_Oscillatory_Motion, or its git "
-                         "directory")
+    real_footage.add_clip_paths(ap)
     ap.add_argument("--seeds", type=int, default=3, help="patterns per clip (default 3)")
     args = ap.parse_args()
     vtest = real_clips.CACHE / "opencv-doc" / "vtest.avi"
@@ -142,8 +122,11 @@ def main() -> None:
         return
     compile_kernels()
     if args.tracker is not None and args.tracker.exists():
-        for label, video, fps, marker in tracker_clips(args.tracker):
-            run(label, video, fps, [marker], args.seeds)
+        for clip in real_footage.CLIPS:
+            found = real_footage.footage(args.tracker, clip)
+            if found is not None:
+                run(f"{clip.trz} ({found.video.name})", found.video, found.fps, [clip.marker],
+                    args.seeds)
     if args.pendulum is not None and args.pendulum.exists():
         name, marker, _ = real_footage.PENDULUM
         video = real_footage._extract(args.pendulum, name, folder="")
