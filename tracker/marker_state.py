@@ -148,6 +148,9 @@ class MarkerState:
     #: (x px, y px, distance px), to name if the marker is never found.
     refused_near: tuple[float, float, float] | None = None
     radii_seen: list[float] = field(default_factory=list)  # fitted radii while learning, px
+    #: After a false start, the spec as its colour was learned at the first find; each
+    #: later restart goes back to it, not to one learned again from fewer finds.
+    first_colour: MarkerSpec | None = None
     #: Frames in which the marker was found while learning its size.
     learning_frames: list[int] = field(default_factory=list)
     #: After a false start: its frames and radius (px), to be judged at the next find.
@@ -183,7 +186,7 @@ class MarkerState:
         vtest's second cone, with a ±1 DN pattern, jumped more than 3 px in 381 of
         1247 fixes, not 0. The frames and radius of the false start are kept, for
         :meth:`like_false_start` at the next find, and the user hears of it once."""
-        spec = self.spec
+        spec = self.first_colour or self.spec
         notes = list(self.notes)
         if not any("false start" in n for n in notes):
             frames = ", ".join(str(f) for f in self.learning_frames)
@@ -193,7 +196,7 @@ class MarkerState:
                 f"t = {t:.3f} s; taken for a false start and sought afresh")
         # It stays missed as long as it was: its whole-frame searches keep backing off.
         return MarkerState(spec, rim=False if spec.flat else None, missed=self.missed,
-                           notes=notes,
+                           notes=notes, first_colour=spec,
                            false_start=(list(self.learning_frames), float(self.radius)))
 
     def like_false_start(self, radius: float) -> bool:
