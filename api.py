@@ -1,6 +1,7 @@
 """The Python API: what ``cranktrack track`` and ``cranktrack fit`` do, for a notebook.
 
-``import cranktrack as ct`` gives :func:`track`, :func:`open_run` and :func:`fit`.
+``import cranktrack as ct`` gives :func:`track`, :func:`measure`, :func:`open_run` and
+:func:`fit`.
 They write the same run folder as the commands (so ``cranktrack view`` and the
 reports work on it) and hand back DataFrames and a result object. Nothing here
 prints, shows a progress bar or changes matplotlib's backend.
@@ -24,13 +25,13 @@ import numpy as np
 import pandas as pd
 
 from .errors import CranktrackError
-from .pipeline import RunResult, fit_run, track_run
+from .pipeline import RunResult, fit_run, measure_run, track_run
 from .run_folder import FIT_DIR, FIT_TABLE, KINEMATICS, TRACKS, run_folder
 
 if TYPE_CHECKING:
     from .loop.result import LoopResult
 
-__all__ = ["Fit", "RunResult", "fit", "open_run", "track"]
+__all__ = ["Fit", "RunResult", "fit", "measure", "open_run", "track"]
 
 
 def _specs(markers: Mapping[str, str | float] | None):
@@ -39,6 +40,30 @@ def _specs(markers: Mapping[str, str | float] | None):
     if not markers:
         return DEFAULT_MARKERS
     return parse_markers([f"{name}={colour}" for name, colour in markers.items()])
+
+
+def _plane(calibration: str | os.PathLike | None):
+    """The plane calibration file ``calibration`` read, or None."""
+    if calibration is None:
+        return None
+    from .calibration.file import load_calibration
+
+    return load_calibration(calibration)
+
+
+def _known_length(known_length: tuple[str, str, float] | None
+                  ) -> tuple[str, str, float] | None:
+    """``known_length`` ("A", "C", mm) checked: the mm a positive, finite number."""
+    if known_length is None:
+        return None
+    a, b, mm = known_length
+    try:
+        mm = float(mm)
+    except (TypeError, ValueError):
+        raise CranktrackError(f"known_length {a}-{b} = {mm!r} is not a number of mm") from None
+    if not (np.isfinite(mm) and mm > 0):
+        raise CranktrackError(f"known_length {a}-{b} = {mm} mm is not a positive length")
+    return (str(a), str(b), mm)
 
 
 def track(video: str | os.PathLike, markers: Mapping[str, str | float] | None = None,
@@ -74,27 +99,34 @@ def track(video: str | os.PathLike, markers: Mapping[str, str | float] | None = 
     span = None
     if start_s is not None or end_s is not None:
         span = Span(start_s or 0.0, float("inf") if end_s is None else end_s, "s")
-    plane = None
-    if calibration is not None:
-        from .calibration.file import load_calibration
-
-        plane = load_calibration(calibration)
-    if known_length is not None:
-        a, b, mm = known_length
-        try:
-            mm = float(mm)
-        except (TypeError, ValueError):
-            raise CranktrackError(f"known_length {a}-{b} = {mm!r} is not a number of mm"
-                                  ) from None
-        if not (np.isfinite(mm) and mm > 0):
-            raise CranktrackError(f"known_length {a}-{b} = {mm} mm is not a positive length")
-        known_length = (str(a), str(b), mm)
+    plane = _plane(calibration)
+    known_length = _known_length(known_length)
     folder = Path(out) if out is not None else video.with_name(f"{video.stem}_run")
     return track_run(video, folder, known_length, _specs(markers), window_s=window_s,
                      fill_gaps_frames=fill_gaps, calibration=plane, span=span,
                      roi=None if roi is None else Roi(*roi), on_frame=on_frame,
                      overwrite=overwrite, table_format=table_format,
                      readout_s=float(rolling_shutter_ms) / 1e3)
+
+
+def measure(run: RunResult | str | os.PathLike,
+            known_length: tuple[str, str, float] | None = None,
+            calibration: str | os.PathLike | None = None,
+            rolling_shutter_ms: float | None = None,
+            window_s: float | None = None) -> RunResult:
+    """A run's kinematics measured again from its tracks, without tracking the video
+    again: what ``cranktrack measure`` does. ``known_length`` ("A", "C", mm) or
+    ``calibration`` (a plane calibration file) gives a new scale (default: the run's
+    own calibration.json); ``rolling_shutter_ms`` a new readout (None keeps the run's,
+    0 takes it off); ``window_s`` the differentiator's window. The run folder's tables,
+    run.json and report are rewritten.
+
+    Raises :class:`~cranktrack.errors.CranktrackError` with one sentence on bad input.
+    """
+    folder = run.folder if isinstance(run, RunResult) else Path(run)
+    readout_s = None if rolling_shutter_ms is None else float(rolling_shutter_ms) / 1e3
+    return measure_run(folder, _known_length(known_length), _plane(calibration), window_s,
+                       readout_s)
 
 
 def open_run(folder: str | os.PathLike) -> RunResult:

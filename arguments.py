@@ -255,6 +255,21 @@ def _track_command(sub: argparse._SubParsersAction) -> None:
                    help="frame rate of an image folder (videos use their own timestamps)")
 
 
+def _measure_command(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("measure", help="measure a run's kinematics again from its tracks (a new "
+                                       "scale, calibration, window or rolling shutter), "
+                                       "without tracking the video again")
+    p.add_argument("run", help="run folder written by `cranktrack track`")
+    _add_track_options(p)
+    p.add_argument("--calibration", metavar="PLANE.json",
+                   help="plane calibration from `cranktrack calibrate plane`; with it, "
+                        "--known-length is only checked (default: the run's own "
+                        "calibration.json, unless --known-length is given)")
+    p.add_argument("--rolling-shutter-ms", type=_nonnegative, default=None, metavar="MS",
+                   help="the camera's readout from its top row to its bottom row, as in "
+                        "`track` (default: the run's; 0 takes it off)")
+
+
 def _calibrate_command(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("calibrate", help="camera intrinsics, the mechanism's plane, or a "
                                          "rolling shutter's readout")
@@ -386,6 +401,7 @@ def build_parser() -> argparse.ArgumentParser:
     _thermal_id_command(sub)
     _inspect_command(sub)
     _track_command(sub)
+    _measure_command(sub)
     _calibrate_command(sub)
     _compare_command(sub)
     _fit_command(sub)

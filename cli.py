@@ -255,6 +255,31 @@ def _track(args: argparse.Namespace, video: Path, out: Path):
                          on_stage=lambda stage: bar.set_description_str(f"track: {stage}"))
 
 
+def cmd_measure(args: argparse.Namespace) -> int:
+    from .calibration.known_length import parse_known_length
+    from .pipeline import measure_run
+    from .run_folder import RUN_INFO, RunFolder
+
+    plane = None
+    if args.calibration:
+        from .calibration.file import load_calibration
+
+        plane = load_calibration(args.calibration)
+    readout = None if args.rolling_shutter_ms is None else args.rolling_shutter_ms / 1e3
+    run = measure_run(args.run, parse_known_length(args.known_length) if args.known_length
+                      else None, plane, args.window_s, readout)
+    _print_warnings(run.warnings)
+    q = run.calibration.quality
+    scale = (f"{q['mm_per_px']:.5g} mm/px" if "mm_per_px" in q else run.calibration.method)
+    info = RunFolder(run.folder).read_json(RUN_INFO) or {}
+    readout_s = (info.get("tracking") or {}).get("rolling_shutter_readout_s")
+    print(f"measured {len(run.kinematics)} rows from the tracks ({scale}, "
+          + (f"rolling shutter {readout_s * 1e3:g} ms" if readout_s else "all rows at once")
+          + ")")
+    print(f"wrote {', '.join(f.name for f in run.files.values())} in {run.folder}")
+    return 0
+
+
 def _print_warnings(warnings: Sequence[str]) -> None:
     for w in warnings:
         print(f"warning: {w}", file=sys.stderr)
@@ -356,7 +381,8 @@ def cmd_track(args: argparse.Namespace) -> int:
     print(f"tracked {len(run.tracks)} frames (markers found: {found})")
     if run.calibration is None:
         print("no --known-length or --calibration given: tracks are in pixels only, "
-              "no kinematics")
+              f"no kinematics (add them with `cranktrack measure {shlex.quote(str(run.folder))} "
+              "--known-length A-C=MM`, without tracking again)")
     print(f"wrote {', '.join(f.name for f in run.files.values())} in {run.folder}")
     return 0
 
@@ -582,7 +608,9 @@ def cmd_calibrate_readout(args: argparse.Namespace) -> int:
         print("that is within 2σ of reading all rows at once: no --rolling-shutter-ms "
               "needed (or the flight chosen is not free: see --start and --end)")
     else:
-        print(f"track this camera with: --rolling-shutter-ms {fit.readout_s * 1e3:.2f}")
+        print(f"track this camera with: --rolling-shutter-ms {fit.readout_s * 1e3:.2f} (a run "
+              f"already tracked: cranktrack measure RUN --rolling-shutter-ms "
+              f"{fit.readout_s * 1e3:.2f})")
     return 0
 
 
@@ -636,8 +664,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
 #: What each command line runs (``calibrate`` by what it calibrates).
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "synth": cmd_synth, "thermal-id": cmd_thermal_id, "inspect": cmd_inspect,
-    "track": cmd_track, "compare": cmd_compare, "fit": cmd_fit, "sweep": cmd_sweep,
-    "batch": cmd_batch, "view": cmd_view, "demo": cmd_demo,
+    "track": cmd_track, "measure": cmd_measure, "compare": cmd_compare, "fit": cmd_fit,
+    "sweep": cmd_sweep, "batch": cmd_batch, "view": cmd_view, "demo": cmd_demo,
     "calibrate camera": cmd_calibrate_camera, "calibrate plane": cmd_calibrate_plane,
     "calibrate readout": cmd_calibrate_readout,
 }

@@ -360,43 +360,14 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
 
     cal = kinematics = None
     if known_length is not None or calibration is not None:
-        never = [s for s in specs if result.found_fraction[s.name] == 0]
-        if never:
-            s0 = never[0]
-            raise CranktrackError(
-                f"marker {s0.name} (hue {s0.hue_deg:g}°) was not found in any frame, so there "
-                f"are no kinematics; {folder / TRACKS} has what was found; check the "
-                "marker's colour (--marker NAME=COLOUR)", result.problems)
-        if calibration is not None:
-            cal = align_to_markers(calibration, tracks)
-            if known_length is not None:
-                cal = check_length(cal, tracks, *known_length)
-        else:
-            a, b, length = known_length
-            cal = calibrate_known_length(tracks, a, b, length, (source.width, source.height))
-        warnings += list(cal.warnings)
-        files["calibration"] = save_calibration(folder / CALIBRATION, cal)
-        tracks = add_plane_coordinates(tracks, cal, names)
-        files["tracks"] = write_csv_atomic(folder / TRACKS, tracks)
-        if {"A", "B", "C"} <= set(names):
-            on_stage("kinematics")
-            timed = (tracks if not readout_s
-                     else at_frame_times(tracks, readout_s, source.height, names))
-            kinematics, info = measure_kinematics(timed, window_s=window_s,
-                                                  scale_sigma=cal.scale_sigma)
-            warnings += _link_warnings(info.links)
-            if info.repeated_frames:
-                warnings.append(
-                    f"{info.repeated_frames} frames repeat the picture before them (a marker "
-                    "all but stops between two frames in which it moves on); their rows of "
-                    f"{KINEMATICS} are empty, since their timestamps are not when their "
-                    "picture was taken")
-            files["kinematics"] = write_csv_atomic(folder / KINEMATICS, kinematics)
-        else:
-            raise CranktrackError("kinematics need markers A, B and C; the run tracked only "
-                                  + ", ".join(names))
-        run_info["calibration"] = {"method": cal.method, **cal.quality}
-        run_info["kinematics"] = info.to_dict()
+        plane = None if calibration is None else align_to_markers(calibration, tracks)
+        measured = _measure_into(folder, tracks, names, (source.width, source.height),
+                                 known_length, plane, window_s, readout_s, on_stage,
+                                 result.problems)
+        tracks, cal, kinematics = measured.tracks, measured.calibration, measured.kinematics
+        files.update(measured.files)
+        warnings += measured.warnings
+        run_info.update(measured.run_info)
         run_info["warnings"] = warnings
         files["run"] = write_json_atomic(folder / RUN_INFO, run_info)
     on_stage("report")
@@ -408,6 +379,163 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
     record_step(folder, "track", [n for n in (TRACKS, KINEMATICS) if (folder / n).exists()],
                 video=video)
     return RunResult(folder, tracks, kinematics, cal, files, warnings)
+
+
+@dataclass(frozen=True)
+class _Measured:
+    """What the step from pixels to kinematics wrote: the tracks with plane mm, the
+    calibration, the kinematics, their files, its warnings and its part of run.json."""
+
+    tracks: pd.DataFrame
+    calibration: PlaneCalibration
+    kinematics: pd.DataFrame
+    files: dict[str, Path]
+    warnings: list[str]
+    run_info: dict
+
+
+def _measure_into(folder: Path, tracks: pd.DataFrame, names: tuple[str, ...],
+                  size: tuple[int, int],
+                  known_length: tuple[str, str, float] | None,
+                  calibration: PlaneCalibration | None, window_s: float | None,
+                  readout_s: float, on_stage: Callable[[str], None],
+                  problems: list[str]) -> _Measured:
+    """Pixels to mm to kinematics, written into ``folder`` as each exists (the
+    calibration and the tracks in mm stay on disk if a later step is refused).
+    ``calibration``, already aligned to the markers (A at the origin, C on +x), maps
+    pixels to mm, and ``known_length`` then only checks it; without it
+    ``known_length`` sets the scale. ``size`` is the frame's (width, height), px."""
+    never = [n for n in names if not tracks[f"{n}_ok"].astype(bool).any()]
+    if never:
+        raise CranktrackError(
+            f"marker {never[0]} was not found in any frame, so there are no kinematics; "
+            f"{folder / TRACKS} has what was found; check the marker's colour (--marker "
+            "NAME=COLOUR)", problems)
+    if calibration is not None:
+        cal = calibration
+        if known_length is not None:
+            cal = check_length(cal, tracks, *known_length)
+    else:
+        a, b, length = known_length
+        cal = calibrate_known_length(tracks, a, b, length, size)
+    warnings = list(cal.warnings)
+    files = {"calibration": save_calibration(folder / CALIBRATION, cal)}
+    tracks = add_plane_coordinates(tracks, cal, names)
+    files["tracks"] = write_csv_atomic(folder / TRACKS, tracks)
+    if not {"A", "B", "C"} <= set(names):
+        raise CranktrackError("kinematics need markers A, B and C; the run tracked only "
+                              + ", ".join(names))
+    on_stage("kinematics")
+    timed = tracks if not readout_s else at_frame_times(tracks, readout_s, size[1], names)
+    kinematics, info = measure_kinematics(timed, window_s=window_s, scale_sigma=cal.scale_sigma)
+    warnings += _link_warnings(info.links)
+    if info.repeated_frames:
+        warnings.append(
+            f"{info.repeated_frames} frames repeat the picture before them (a marker all but "
+            f"stops between two frames in which it moves on); their rows of {KINEMATICS} are "
+            "empty, since their timestamps are not when their picture was taken")
+    files["kinematics"] = write_csv_atomic(folder / KINEMATICS, kinematics)
+    return _Measured(tracks, cal, kinematics, files, warnings,
+                     {"calibration": {"method": cal.method, **cal.quality},
+                      "kinematics": info.to_dict()})
+
+
+#: What `track` adds to the tracks table once it has a scale: dropped before measuring again.
+_PLANE_SUFFIXES = ("_x_mm", "_y_mm", "_sigma_mm")
+
+
+def measure_run(run: str | os.PathLike, known_length: tuple[str, str, float] | None = None,
+                calibration: PlaneCalibration | None = None, window_s: float | None = None,
+                readout_s: float | None = None,
+                on_stage: Callable[[str], None] | None = None) -> RunResult:
+    """The kinematics of a run folder measured again from its tracks, without tracking
+    the video again: with a new scale (``known_length``), plane ``calibration``,
+    differentiator window ``window_s`` (s) or rolling shutter readout ``readout_s``
+    (s, top row to bottom row; None keeps the run's, 0 takes it off).
+
+    With neither ``known_length`` nor ``calibration``, the run's own calibration.json is
+    used again. Rewrites calibration.json, tracks.csv (its pixels as tracked, the mm
+    from the new calibration), kinematics.csv (and their Parquet copies where the run
+    has them), run.json's calibration, kinematics, readout and warnings, and the report;
+    a later `compare` or `fit` of the run is then out of date, and says so.
+
+    Raises
+    ------
+    CranktrackError
+        The folder holds no tracked run, nothing gives a scale, a readout does not fit
+        in a frame, or the run lacks a marker the kinematics or the length need.
+    """
+    folder = run_folder(run)
+    if not folder.path.is_dir():
+        raise CranktrackError(f"{folder.path} is not a folder; give the run folder that "
+                              "`cranktrack track VIDEO --out RUN` wrote")
+    info = folder.read_json(RUN_INFO)
+    source = (info or {}).get("source") or {}
+    if not info or "tracking" not in info or not source.get("height"):
+        raise CranktrackError(f"{folder / RUN_INFO} is missing or was not written by "
+                              f"`cranktrack track`; track the video into {folder.path} first")
+    tracks = folder.read_tracks()
+    tracks = tracks.drop(columns=[c for c in tracks.columns if c.endswith(_PLANE_SUFFIXES)])
+    names = tuple(c[:-3] for c in tracks.columns if c.endswith("_ok"))
+    width, height = int(source.get("width") or 0), int(source["height"])
+    if known_length is not None:
+        missing = [m for m in known_length[:2] if m not in names]
+        if missing:
+            raise CranktrackError(f"--known-length names {' and '.join(missing)}, not among "
+                                  f"the run's markers {', '.join(names)}")
+    if calibration is not None:
+        if width and calibration.image_size != (width, height):
+            size = calibration.image_size
+            raise CranktrackError(f"the calibration was made for {size[0]}x{size[1]} images, "
+                                  f"but the run's video is {width}x{height}; calibrate for "
+                                  "this camera setting")
+        calibration = align_to_markers(calibration, tracks)
+    elif known_length is None:
+        if not (folder / CALIBRATION).is_file():
+            raise CranktrackError(f"{folder.path} has no calibration yet; give a scale: "
+                                  "--known-length A-C=MM or --calibration PLANE.json")
+        calibration = load_calibration(folder / CALIBRATION, (width, height) if width else None)
+    tracking = info["tracking"]
+    if readout_s is None:
+        readout_s = float(tracking.get("rolling_shutter_readout_s") or 0.0)
+    frame_s = float(np.median(np.diff(tracks["t_s"].to_numpy(float)))) if len(tracks) > 1 \
+        else np.inf
+    if readout_s < 0 or readout_s >= frame_s:
+        raise CranktrackError(f"--rolling-shutter-ms {readout_s * 1e3:g} does not fit in one "
+                              f"frame of the run ({frame_s * 1e3:.3g} ms): give the time from "
+                              "its top row to its bottom row, from 0 up to less than a frame")
+    if window_s is not None and window_s > np.ptp(tracks["t_s"].to_numpy(float)) / 2:
+        raise CranktrackError(f"--window-s {window_s:g} is more than half the run; choose a "
+                              "window of a few frames")
+    problems = list(tracking.get("problems") or [])
+    with claimed(folder.path):
+        measured = _measure_into(folder.path, tracks, names, (width, height), known_length,
+                                 calibration, window_s, readout_s,
+                                 on_stage or (lambda stage: None), problems)
+        files = dict(measured.files)
+        warnings = (problems + _found_warnings(tracking.get("found_fraction") or {}, problems)
+                    + measured.warnings)
+        tracking.pop("rolling_shutter_readout_s", None)
+        if readout_s:
+            tracking["rolling_shutter_readout_s"] = readout_s
+        info.update(measured.run_info)
+        info["warnings"] = warnings
+        files["run"] = write_json_atomic(folder / RUN_INFO, info)
+        if (folder / TRACKS_PARQUET).exists():
+            files["tracks_parquet"] = write_parquet_atomic(folder / TRACKS_PARQUET,
+                                                           measured.tracks)
+            files["kinematics_parquet"] = write_parquet_atomic(folder / KINEMATICS_PARQUET,
+                                                               measured.kinematics)
+        from .report.summary import write_report  # matplotlib: only once measured
+
+        files["report"] = write_report(folder.path)
+        if (folder / KINEMATICS_FIGURE).is_file():
+            files["figure"] = folder / KINEMATICS_FIGURE
+        # The tables are what `track` with these options would have written from the same
+        # tracks: its manifest entry is renewed, so compare and fit see them as newer.
+        record_step(folder.path, "track", [TRACKS, KINEMATICS])
+    return RunResult(folder.path, measured.tracks, measured.kinematics, measured.calibration,
+                     files, warnings)
 
 
 def read_kinematics(run: Path) -> pd.DataFrame:

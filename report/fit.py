@@ -80,11 +80,23 @@ RIG_CHECKS = {
                      "plane`)",
     "tilt_vertical_deg": "square the camera to the rig's plane, or calibrate the plane",
     "tilt_horizontal_deg": "square the camera to the rig's plane, or calibrate the plane",
-    "readout_s": "the camera's rolling shutter: track again with the readout found "
-                 "(`--rolling-shutter-ms`, measured apart with `cranktrack calibrate readout` "
-                 "on a tossed ball), or use a global shutter",
+    "readout_s": "the camera's rolling shutter: measure the run again with the readout "
+                 "found (`cranktrack measure RUN --rolling-shutter-ms MS`; measure it apart "
+                 "with `cranktrack calibrate readout` on a tossed ball), or use a global "
+                 "shutter",
     "pivot_amp_mm": "fix the bench or the pivot's mount",
 }
+
+
+def _rig_check(name: str, fitted: dict) -> str:
+    """What to look at on the rig for the effect ``name``, with the value the loop fitted
+    (``fitted["value"]``) where the remedy is to type it: a readout in s becomes the
+    ms that `--rolling-shutter-ms` takes (only a top-to-bottom one, > 0)."""
+    check = RIG_CHECKS[name]
+    value = fitted.get("value")
+    if name == "readout_s" and value is not None and value > 0:
+        check = check.replace("--rolling-shutter-ms MS", f"--rolling-shutter-ms {value * 1e3:.2f}")
+    return check
 
 
 def _camera_caveat(report: dict) -> str:
@@ -136,7 +148,7 @@ def plain_summary(report: dict) -> str:
         value = (f" = {p['value']:.3g} ± {1.96 * p['sigma']:.2g}{unit} (95 %)"
                  if "sigma" in p else "")
         found.append(f"`{name}`{value}")
-    checks = [RIG_CHECKS[n] for n in report["effects"] if n in RIG_CHECKS]
+    checks = [_rig_check(n, params.get(n, {})) for n in report["effects"] if n in RIG_CHECKS]
     return (f"Found: {', '.join(found)}. With it the model misses the measured angle by "
             f"{after:.3g}° RMS instead of {before:.3g}° (worst frame "
             f"{report['max_after_deg']:.3g}° instead of {report['max_before_deg']:.3g}°), "

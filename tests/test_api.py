@@ -33,3 +33,13 @@ def test_track_refuses_a_missing_video_and_a_bad_length_without_making_a_folder(
 def test_an_unknown_name_is_an_attribute_error():
     with pytest.raises(AttributeError):
         ct.no_such_thing  # noqa: B018
+
+
+def test_measure_refuses_a_folder_that_is_no_run_and_a_bad_length(tmp_path):
+    with pytest.raises(CranktrackError, match="is not a folder"):
+        ct.measure(tmp_path / "absent")
+    with pytest.raises(CranktrackError, match="not a positive length"):
+        ct.measure(tmp_path, known_length=("A", "C", 0))
+    with pytest.raises(CranktrackError, match="was not written by `cranktrack track`"):
+        ct.measure(tmp_path, known_length=("A", "C", 160.8))
+    assert list(tmp_path.iterdir()) == []

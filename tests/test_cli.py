@@ -223,3 +223,27 @@ def test_calibrate_readout_reads_a_runs_flight_and_says_what_to_type(tmp_path, c
     assert main(["calibrate", "readout", str(run), "--marker", "bob"]) == 1
     err = capsys.readouterr().err
     assert "has no marker bob; it has ball" in err and err.count("\n") == 1
+
+
+def test_measure_adds_kinematics_to_a_pixel_run_and_refuses_in_one_sentence(
+        small_h264, tmp_path, capsys):
+    run = tmp_path / "r"
+    assert main(["track", str(small_h264.video), "--out", str(run)]) == 0
+    assert "cranktrack measure" in capsys.readouterr().out  # the pixel run says how
+    for options, says in [([], "has no calibration yet"),
+                          (["--known-length", "A-Q=5"], "Q, not among the run's markers"),
+                          (["--known-length", "A-C=160.8", "--rolling-shutter-ms", "40"],
+                           "does not fit in one frame"),
+                          (["--known-length", "A-C=160.8", "--window-s", "5"],
+                           "more than half the run")]:
+        assert main(["measure", str(run), *options]) == 1
+        err = capsys.readouterr().err
+        assert says in err and err.count("\n") == 1, err
+        assert not (run / "kinematics.csv").exists()
+    assert main(["measure", str(tmp_path / "nowhere")]) == 1
+    assert "is not a folder" in capsys.readouterr().err
+    assert main(["measure", str(run), "--known-length", "A-C=160.8",
+                 "--rolling-shutter-ms", "3"]) == 0
+    out = capsys.readouterr().out
+    assert "rolling shutter 3 ms" in out and "kinematics.csv" in out
+    assert len(pd.read_csv(run / "kinematics.csv")) == len(pd.read_csv(run / "tracks.csv"))

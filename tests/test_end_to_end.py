@@ -83,3 +83,36 @@ def test_a_rolling_shutter_readout_reaches_the_kinematics_only(run, small_h264, 
     assert 0 < np.nanmax(moved) < THETA_BOUND_DEG
     info = json.loads((tmp_path / "rolled" / "run.json").read_text())
     assert info["tracking"]["rolling_shutter_readout_s"] == 0.0035
+
+
+def test_measuring_a_pixel_run_again_gives_what_tracking_with_the_options_gives(
+        run, small_h264, tmp_path):
+    # The second path to the same numbers is a whole `track` with the options: measuring
+    # a run tracked in pixels alone, with a scale and a readout given afterwards, must
+    # give its kinematics (to the 10 digits tracks.csv keeps), without the video.
+    import json
+
+    from cranktrack.pipeline import measure_run
+    from cranktrack.run_folder import out_of_date
+
+    tracked = track_run(small_h264.video, tmp_path / "tracked", ("A", "C", 160.8),
+                        readout_s=0.0035)
+    track_run(small_h264.video, tmp_path / "bare")
+    assert not (tmp_path / "bare" / "kinematics.csv").exists()
+    again = measure_run(tmp_path / "bare", ("A", "C", 160.8), readout_s=0.0035)
+    pd.testing.assert_frame_equal(again.kinematics, tracked.kinematics, rtol=1e-3, atol=1e-5)
+    assert np.nanmax(np.abs(again.kinematics["theta_deg"] - tracked.kinematics["theta_deg"])
+                     ) < 1e-6
+    on_disk = pd.read_csv(tmp_path / "bare" / "kinematics.csv")
+    np.testing.assert_allclose(on_disk["theta_deg"], again.kinematics["theta_deg"], atol=1e-7)
+    info = json.loads((tmp_path / "bare" / "run.json").read_text())
+    assert info["tracking"]["rolling_shutter_readout_s"] == 0.0035
+    assert info["calibration"]["known_length_mm"] == 160.8
+    assert out_of_date(tmp_path / "bare") == []
+    # Without a new scale the run's own calibration is used again; a readout of 0 takes
+    # the correction off, which gives the run tracked without one.
+    off = measure_run(tmp_path / "bare", readout_s=0.0)
+    np.testing.assert_allclose(off.kinematics["theta_deg"], run.kinematics["theta_deg"],
+                               atol=1e-6)
+    info = json.loads((tmp_path / "bare" / "run.json").read_text())
+    assert "rolling_shutter_readout_s" not in info["tracking"]

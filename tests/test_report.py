@@ -133,3 +133,18 @@ def test_the_report_checks_sigma_against_the_pivot_at_rest(run):
         r"scatters by ([\d.]+) px.*median σ is ([\d.]+) px.*holds it in (\d+) %", line)[0])
     assert 0 < scatter < 0.2 and 0 < sigma < 0.2
     assert 30 <= coverage <= 98, line
+
+
+def test_a_rolling_shutter_found_by_the_loop_is_given_as_the_option_to_type():
+    # The loop's readout is in s over the frame's rows; the option takes ms. A readout
+    # running bottom to top (negative) has no option to type, so MS stays a placeholder.
+    from cranktrack.report.fit import plain_summary
+
+    def report(value: float) -> dict:
+        return {"rmse_before_deg": 0.2, "rmse_after_deg": 0.02, "tracker_sigma_deg": 0.02,
+                "noise": {"sigma_deg": 0.02}, "unexplained": False, "effects": ["readout_s"],
+                "model": "spool", "max_before_deg": 0.5, "max_after_deg": 0.05,
+                "parameters": {"readout_s": {"value": value, "sigma": 0.0004, "unit": "s"}}}
+
+    assert "cranktrack measure RUN --rolling-shutter-ms 6.88" in plain_summary(report(0.00688))
+    assert "--rolling-shutter-ms MS" in plain_summary(report(-0.004))
