@@ -360,10 +360,9 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
 
     cal = kinematics = None
     if known_length is not None or calibration is not None:
-        plane = None if calibration is None else align_to_markers(calibration, tracks)
-        measured = _measure_into(folder, tracks, names, (source.width, source.height),
-                                 known_length, plane, window_s, readout_s, on_stage,
-                                 result.problems)
+        measured = _measure_into(folder, tracks, {s.name: s.hue_deg for s in specs},
+                                 (source.width, source.height), known_length, calibration,
+                                 window_s, readout_s, on_stage, result.problems)
         tracks, cal, kinematics = measured.tracks, measured.calibration, measured.kinematics
         files.update(measured.files)
         warnings += measured.warnings
@@ -394,25 +393,29 @@ class _Measured:
     run_info: dict
 
 
-def _measure_into(folder: Path, tracks: pd.DataFrame, names: tuple[str, ...],
+def _measure_into(folder: Path, tracks: pd.DataFrame, hues: dict[str, float | None],
                   size: tuple[int, int],
                   known_length: tuple[str, str, float] | None,
                   calibration: PlaneCalibration | None, window_s: float | None,
                   readout_s: float, on_stage: Callable[[str], None],
-                  problems: list[str]) -> _Measured:
+                  problems: list[str], aligned: bool = False) -> _Measured:
     """Pixels to mm to kinematics, written into ``folder`` as each exists (the
     calibration and the tracks in mm stay on disk if a later step is refused).
-    ``calibration``, already aligned to the markers (A at the origin, C on +x), maps
-    pixels to mm, and ``known_length`` then only checks it; without it
-    ``known_length`` sets the scale. ``size`` is the frame's (width, height), px."""
+    ``calibration`` maps pixels to mm, once aligned to the markers (A at the origin, C
+    on +x; ``aligned`` says it is already: a run's own calibration.json), and
+    ``known_length`` then only checks it; without it
+    ``known_length`` sets the scale. ``hues`` are the markers' (deg, by name; None for
+    one found by brightness); ``size`` is the frame's (width, height), px."""
+    names = tuple(hues)
     never = [n for n in names if not tracks[f"{n}_ok"].astype(bool).any()]
     if never:
+        hue = hues[never[0]]
         raise CranktrackError(
-            f"marker {never[0]} was not found in any frame, so there are no kinematics; "
-            f"{folder / TRACKS} has what was found; check the marker's colour (--marker "
-            "NAME=COLOUR)", problems)
+            f"marker {never[0]}{'' if hue is None else f' (hue {hue:g}°)'} was not found in "
+            f"any frame, so there are no kinematics; {folder / TRACKS} has what was found; "
+            "check the marker's colour (--marker NAME=COLOUR)", problems)
     if calibration is not None:
-        cal = calibration
+        cal = calibration if aligned else align_to_markers(calibration, tracks)
         if known_length is not None:
             cal = check_length(cal, tracks, *known_length)
     else:
@@ -483,14 +486,13 @@ def measure_run(run: str | os.PathLike, known_length: tuple[str, str, float] | N
         if missing:
             raise CranktrackError(f"--known-length names {' and '.join(missing)}, not among "
                                   f"the run's markers {', '.join(names)}")
-    if calibration is not None:
-        if width and calibration.image_size != (width, height):
-            size = calibration.image_size
-            raise CranktrackError(f"the calibration was made for {size[0]}x{size[1]} images, "
-                                  f"but the run's video is {width}x{height}; calibrate for "
-                                  "this camera setting")
-        calibration = align_to_markers(calibration, tracks)
-    elif known_length is None:
+    if calibration is not None and width and calibration.image_size != (width, height):
+        size = calibration.image_size
+        raise CranktrackError(f"the calibration was made for {size[0]}x{size[1]} images, but "
+                              f"the run's video is {width}x{height}; calibrate for this camera "
+                              "setting")
+    reused = calibration is None and known_length is None
+    if reused:
         if not (folder / CALIBRATION).is_file():
             raise CranktrackError(f"{folder.path} has no calibration yet; give a scale: "
                                   "--known-length A-C=MM or --calibration PLANE.json")
@@ -509,9 +511,12 @@ def measure_run(run: str | os.PathLike, known_length: tuple[str, str, float] | N
                               "window of a few frames")
     problems = list(tracking.get("problems") or [])
     with claimed(folder.path):
-        measured = _measure_into(folder.path, tracks, names, (width, height), known_length,
+        marks = info.get("markers") or {}
+        hues = {n: (marks.get(n) or {}).get("hue_deg") for n in names}
+        measured = _measure_into(folder.path, tracks, hues, (width, height), known_length,
                                  calibration, window_s, readout_s,
-                                 on_stage or (lambda stage: None), problems)
+                                 on_stage or (lambda stage: None), problems,
+                                 aligned=reused)
         files = dict(measured.files)
         warnings = (problems + _found_warnings(tracking.get("found_fraction") or {}, problems)
                     + measured.warnings)
