@@ -361,6 +361,9 @@ def _batch_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("pattern", help="quoted glob of videos, e.g. 'recordings/*.mp4'")
     p.add_argument("--out", required=True, help="folder for the run folders and summary.csv")
     p.add_argument("--known-length", metavar="A-C=MM", help="scale for every video")
+    p.add_argument("--rolling-shutter-ms", type=_nonnegative, default=0.0, metavar="MS",
+                   help="the camera's readout from its top row to its bottom row, as in "
+                        "`track` (default 0: all rows at once)")
     p.add_argument("--compare", action="store_true", help="also fit the spool model")
     p.add_argument("--jobs", type=int, help="local worker processes (default: all cores)")
     p.add_argument("--scheduler", help="Dask scheduler address to run on, e.g. tcp://host:8786")

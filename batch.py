@@ -40,11 +40,12 @@ def _folder_for(video: Path, out: Path, taken: set[str]) -> Path:
 
 
 def process_one(video: str, folder: str, known_length: tuple[str, str, float] | None,
-                compare: bool, resume: bool = False) -> dict:
+                compare: bool, resume: bool = False, readout_s: float = 0.0) -> dict:
     """Track (and optionally compare) one video; never raises for bad input.
 
     Runs in a worker process or on a Dask worker, so it imports what it needs.
     With ``resume``, a run interrupted in ``folder`` continues where it stopped.
+    ``readout_s`` is the camera's rolling-shutter readout (s, top row to bottom row).
     """
     from .pipeline import compare_run, track_run
     from .run_folder import TRACKER_STATE
@@ -52,7 +53,7 @@ def process_one(video: str, folder: str, known_length: tuple[str, str, float] | 
     row: dict = {"video": video, "run": folder, "status": "ok", "message": ""}
     try:
         resume = resume and (Path(folder) / TRACKER_STATE).exists()
-        run = track_run(video, folder, known_length, resume=resume)
+        run = track_run(video, folder, known_length, resume=resume, readout_s=readout_s)
         t = run.tracks
         row["frames"] = len(t)
         for m in [c[:-3] for c in t.columns if c.endswith("_ok")]:
@@ -85,6 +86,7 @@ def run_batch(
     on_done: Callable[[dict], None] | None = None,
     on_start: Callable[[int], None] | None = None,
     resume: bool = False,
+    readout_s: float = 0.0,
 ) -> pd.DataFrame:
     """Process every video matching ``pattern``; write and return ``summary.csv``.
 
@@ -96,13 +98,15 @@ def run_batch(
     Ctrl-C writes the summary of the videos that finished (the others are rows
     with status ``interrupted``) and raises :class:`RunInterrupted`. ``resume``
     keeps the rows of videos an earlier ``summary.csv`` has as ``ok`` and runs
-    only the rest, each continuing from where it was interrupted.
+    only the rest, each continuing from where it was interrupted. ``readout_s`` (s) is
+    the rolling-shutter readout of the one camera that filmed them all (`track`'s
+    ``--rolling-shutter-ms``); a video whose frame it does not fit in fails alone.
     """
     videos = find_videos(pattern)
     out = ensure_dir(out_dir)
     taken: set[str] = set()
-    tasks = [(str(v), str(_folder_for(v, out, taken)), known_length, compare, resume)
-             for v in videos]
+    tasks = [(str(v), str(_folder_for(v, out, taken)), known_length, compare, resume,
+              readout_s) for v in videos]
     rows = _finished(out / SUMMARY, {t[0] for t in tasks}) if resume else []
     done = {r["video"] for r in rows}
     tasks = [t for t in tasks if t[0] not in done]

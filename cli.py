@@ -654,7 +654,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
             bar.update(1)
 
         summary = run_batch(args.pattern, args.out, known, args.compare, args.jobs,
-                            args.scheduler, on_done=done, resume=args.resume, on_start=start)
+                            args.scheduler, on_done=done, resume=args.resume, on_start=start,
+                            readout_s=args.rolling_shutter_ms / 1e3)
     failed = int((summary["status"] != "ok").sum())
     print(f"{len(summary) - failed} of {len(summary)} videos done; summary in "
           f"{Path(args.out) / 'summary.csv'}")

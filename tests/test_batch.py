@@ -76,3 +76,20 @@ def test_an_interrupted_batch_keeps_a_summary_and_resumes(recordings, tmp_path):
     finished_first = first.loc[first["status"] == "ok", "video"].tolist()
     assert not set(finished_first) & set(again)  # a finished video is not run twice
     assert len(again) == 4 - len(finished_first)
+
+
+def test_one_cameras_readout_reaches_every_run_and_one_too_long_fails_each_alone(
+        recordings, tmp_path):
+    import json
+
+    summary = run_batch(str(recordings / "take*.mp4"), tmp_path / "rs", ("A", "C", 160.8),
+                        jobs=2, readout_s=0.004)
+    assert (summary["status"] == "ok").all() and len(summary) == 3
+    for stem in ("take1", "take2", "take3"):
+        info = json.loads((tmp_path / "rs" / stem / "run.json").read_text())
+        assert info["tracking"]["rolling_shutter_readout_s"] == 0.004
+    # 40 ms is longer than a 30 fps frame: refused per video, before tracking.
+    summary = run_batch(str(recordings / "take*.mp4"), tmp_path / "long", ("A", "C", 160.8),
+                        jobs=2, readout_s=0.04)
+    assert (summary["status"] == "failed").all()
+    assert summary["message"].str.contains("does not fit in one frame").all()
