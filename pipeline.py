@@ -26,7 +26,6 @@ from .calibration.plane import (
     add_plane_coordinates,
     align_to_markers,
 )
-from .calibration.readout import ReadoutFit, readout_from_flight
 from .errors import CranktrackError, RunInterrupted
 from .files import (
     ensure_dir,
@@ -66,6 +65,7 @@ from .tracker.track import Roi, Span, TrackerState, TrackingInterrupted, track, 
 from .tracker.video import FrameSource, open_frames
 
 if TYPE_CHECKING:
+    from .calibration.readout import ReadoutFit
     from .loop.camera_view import CameraView
     from .loop.compare import Comparison
     from .loop.result import LoopResult
@@ -250,6 +250,9 @@ def readout_from_run(run: str | os.PathLike, marker: str, start_s: float | None 
     CranktrackError
         The run has no such marker, does not say the frame's height, or too few fixes.
     """
+    # SciPy's optimizers (0.25 s to import) are loaded only here: `track` starts without.
+    from .calibration.readout import readout_from_flight
+
     folder = RunFolder(run)
     tracks = folder.read_tracks()
     if f"{marker}_ok" not in tracks.columns:

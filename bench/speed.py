@@ -20,7 +20,9 @@ and prints each one's fps ÷ decode-only fps and its 2-D RMS error against
 truth.csv. Each is run ``--rounds`` times (3) and the fastest run kept, to damp
 the noise of a shared 2-core machine; the ratio of each round (decode, then
 the command, back to back) is printed too, with their median. The alternative,
-at a tenth of decoding speed, runs in the first round only.
+at a tenth of decoding speed, runs in the first round only. Last, once,
+``cranktrack measure`` on a tracked run (a readout given after tracking) against
+the ``track`` that made the run: what measuring again instead saves.
 
 First it prints the start-up: a fresh interpreter to the first decoded frame, as
 ``cranktrack track`` imports its way there and with PyAV alone, and the heaviest
@@ -209,6 +211,23 @@ def main() -> None:
           + ", ".join(f"{r:.3f}" for r in rounds))
     print(f"ratio whole command/decode = {best['command'] / best['decode']:.3f} (best of "
           f"each), median of rounds {np.median(rounds):.3f}  (target ≥ 0.95)")
+    measure_again(files)
+
+
+def measure_again(files: SceneFiles) -> None:
+    """Wall times of ``cranktrack track`` and then ``cranktrack measure`` with a readout on
+    its run, each in a fresh process."""
+    with tempfile.TemporaryDirectory() as tmp:
+        run = Path(tmp) / "run"
+        t = time.perf_counter()
+        subprocess.run(track_command(files, run), check=True, stdout=subprocess.DEVNULL)
+        tracked = time.perf_counter() - t
+        t = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "cranktrack", "measure", str(run),
+                        "--rolling-shutter-ms", "5"], check=True, stdout=subprocess.DEVNULL)
+        measured = time.perf_counter() - t
+    print(f"`cranktrack measure RUN --rolling-shutter-ms 5`: {measured:.1f} s against "
+          f"{tracked:.1f} s for the `track` that made RUN (ratio {tracked / measured:.0f})")
 
 
 if __name__ == "__main__":

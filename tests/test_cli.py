@@ -83,6 +83,10 @@ def test_parquet_tables_hold_what_the_csv_files_hold_and_leave_with_the_run(
             else:  # the CSV keeps 10 significant digits, Parquet all of them
                 pd.testing.assert_series_equal(parquet[col].astype(float),
                                                csv[col].astype(float), rtol=1e-9)
+    # Measured again, the Parquet copies are rewritten with the CSV files.
+    assert main(["measure", str(run), "--rolling-shutter-ms", "3"]) == 0
+    pd.testing.assert_series_equal(pd.read_parquet(run / "kinematics.parquet")["theta_deg"],
+                                   pd.read_csv(run / "kinematics.csv")["theta_deg"], rtol=1e-9)
     assert main(args) == 0  # a CSV-only rerun must not leave the old Parquet beside it
     assert not list(run.glob("*.parquet"))
 
