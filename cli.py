@@ -604,11 +604,17 @@ def cmd_calibrate_readout(args: argparse.Namespace) -> int:
           f"{fit.height_px} rows; residual {fit.residual_px:.3f} px a coordinate "
           f"({fit.residual_global_px:.3f} with all rows at the frame's time), acceleration "
           f"{fit.acceleration_px_s2:.1f} px/s² ({fit.acceleration_global_px_s2:.1f})")
+    if fit.tilt_explains_it:
+        print(f"but a flight plane turned to the camera, all rows read at once, leaves "
+              f"{fit.residual_tilted_px:.3f} px, no more: one toss cannot tell the two apart, "
+              "so the readout holds only if the ball flew square to the camera (in a drawn "
+              "toss, a plane turned by 10° passed for a readout of 18 ms)")
     if fit.readout_s <= 2.0 * fit.readout_sigma_s:
         print("that is within 2σ of reading all rows at once: no --rolling-shutter-ms "
               "needed (or the flight chosen is not free: see --start and --end)")
     else:
-        print(f"track this camera with: --rolling-shutter-ms {fit.readout_s * 1e3:.2f} (a run "
+        print(("if it did, " if fit.tilt_explains_it else "")
+              + f"track this camera with: --rolling-shutter-ms {fit.readout_s * 1e3:.2f} (a run "
               f"already tracked: cranktrack measure RUN --rolling-shutter-ms "
               f"{fit.readout_s * 1e3:.2f})")
     return 0

@@ -38,13 +38,12 @@ import cv2
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import CACHE
 from pendulum import G, plane_swing, sphere_swing
 
-from cranktrack.calibration.readout import readout_from_flight
+from cranktrack.calibration.readout import readout_from_flight, tilted_plane_residual
 from cranktrack.tracker.markers import parse_markers
 from cranktrack.tracker.survey import frame_and_later, survey
 from cranktrack.tracker.track import track
@@ -235,25 +234,6 @@ def parabola_g(t: np.ndarray, xy: np.ndarray, px_per_m: float
     X = np.vander(t - t.mean(), 3)
     coef = np.linalg.lstsq(X, xy, rcond=None)[0]
     return float(np.hypot(*(2 * coef[0])) / px_per_m), xy - X @ coef
-
-
-def perspective_parabola(t: NDArray, xy: NDArray) -> NDArray:
-    """The residual (px, per frame and axis) of a flight in a plane seen through a
-    pinhole: the plane's x linear and y quadratic in t, mapped by a homography, make
-    image x and y quadratics over one shared quadratic, (P(t)/R(t), Q(t)/R(t)) with
-    R(0) = 1: 8 parameters, where a parabola in the image assumes the plane faces the
-    camera."""
-    tc = t - t.mean()
-    X = np.vander(tc, 3)
-    coef = np.linalg.lstsq(X, xy, rcond=None)[0]
-
-    def model(p: NDArray) -> NDArray:
-        R = 1.0 + p[6] * tc + p[7] * tc**2
-        return np.c_[X @ p[0:3], X @ p[3:6]] / R[:, None]
-
-    fit = least_squares(lambda p: (model(p) - xy).ravel(),
-                        np.r_[coef[:, 0], coef[:, 1], 0.0, 0.0])
-    return xy - model(fit.x)
 
 
 def drag_fall(t: NDArray, y: NDArray) -> tuple[float, NDArray]:
@@ -468,6 +448,15 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
               f"RMS {rolled.residual_px:.2f} px ours, {rolled_peer.residual_px:.2f} px the "
               f"peer's; ±1σ coverage "
               f"{100 * np.mean(dof * np.abs(rolled.residual) <= sigma[:, None]):.0f} %")
+        # One toss cannot tell a readout from a flight plane turned to the camera: both
+        # bend the image parabola. Fitted together, the readout says which took the bend.
+        print(f"  a flight plane turned to the camera, all rows at once, leaves "
+              f"{rolled.residual_tilted_px:.3f} px ours, {rolled_peer.residual_tilted_px:.3f} "
+              f"px the peer's, against the readout's {rolled.residual_px:.3f} / "
+              f"{rolled_peer.residual_px:.3f}: "
+              + ("the plane's tilt explains the bend at least as well, so the readout is "
+                 "not told apart" if rolled.tilt_explains_it
+                 else "the readout explains the bend better"))
         # A residual that is smooth from frame to frame is the parabola's own error
         # (perspective, drag), not tracking noise; the lag-1 correlation says which.
         r1 = [float(np.corrcoef(resid[:-1, i], resid[1:, i])[0, 1]) for i in range(2)]
@@ -475,16 +464,16 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
               "(near 0 for noise; near +1 when the residual is the model's, not the track's)")
         # The same flight in a plane that need not face the camera: what is left is
         # closer to the track's own error (still with drag and spin in it).
-        tilted = perspective_parabola(t_flight, flight)
+        tilted = tilted_plane_residual(t_flight, flight)
         dof = np.sqrt(tilted.size / (tilted.size - 8))  # 8 parameters fitted
         print(f"  against a flight in a tilted plane (perspective parabola): residual RMS "
               f"{np.sqrt(np.mean(tilted**2)):.3f} px ours, "
-              f"{np.sqrt(np.mean(perspective_parabola(t, theirs)**2)):.3f} px the peer's; "
+              f"{np.sqrt(np.mean(tilted_plane_residual(t, theirs)**2)):.3f} px the peer's; "
               f"±1σ coverage {100 * np.mean(dof * np.abs(tilted) <= sigma[:, None]):.0f} %")
         # Where both tracks leave the same residual, it is in the scene (the flight is
         # not quite that model), not in either track: the peer clicked by hand.
         if ok.sum() >= 10:
-            both = [perspective_parabola(t[ok], xy) for xy in (ours[ok], theirs[ok])]
+            both = [tilted_plane_residual(t[ok], xy) for xy in (ours[ok], theirs[ok])]
             shared = [float(np.corrcoef(both[0][:, i], both[1][:, i])[0, 1]) for i in range(2)]
             print(f"  on the {ok.sum()} frames both tracked, the two residuals against that "
                   f"model correlate x {shared[0]:+.2f}, y {shared[1]:+.2f} (what they share "
