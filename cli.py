@@ -258,7 +258,7 @@ def _track(args: argparse.Namespace, video: Path, out: Path):
 def cmd_measure(args: argparse.Namespace) -> int:
     from .calibration.known_length import parse_known_length
     from .pipeline import measure_run
-    from .run_folder import RUN_INFO, RunFolder
+    from .run_folder import RUN_INFO, RunFolder, out_of_date
 
     plane = None
     if args.calibration:
@@ -277,6 +277,8 @@ def cmd_measure(args: argparse.Namespace) -> int:
           + (f"rolling shutter {readout_s * 1e3:g} ms" if readout_s else "all rows at once")
           + ")")
     print(f"wrote {', '.join(f.name for f in run.files.values())} in {run.folder}")
+    # A compare or fit made before now stands on the kinematics replaced: say so.
+    _print_warnings(out_of_date(run.folder, ["compare", "fit"]))
     return 0
 
 

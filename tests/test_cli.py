@@ -251,3 +251,9 @@ def test_measure_adds_kinematics_to_a_pixel_run_and_refuses_in_one_sentence(
     out = capsys.readouterr().out
     assert "rolling shutter 3 ms" in out and "kinematics.csv" in out
     assert len(pd.read_csv(run / "kinematics.csv")) == len(pd.read_csv(run / "tracks.csv"))
+    # A compare made before a second measure stands on the kinematics it replaced.
+    assert main(["compare", str(run), "--quiet"]) == 0
+    capsys.readouterr()
+    assert main(["measure", str(run), "--rolling-shutter-ms", "0"]) == 0
+    err = capsys.readouterr().err
+    assert "made from an earlier kinematics.csv; run `cranktrack compare` again" in err
