@@ -51,6 +51,7 @@ from .run_folder import (
     RUN_INFO,
     TRACKER_STATE,
     TRACKS,
+    TRACKS_FIGURE,
     TRACKS_PARQUET,
     RunFolder,
     claimed,
@@ -376,8 +377,9 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
     from .report.summary import write_report  # matplotlib: loaded once the video is read
 
     files["report"] = write_report(folder)
-    if (folder / KINEMATICS_FIGURE).is_file():
-        files["figure"] = folder / KINEMATICS_FIGURE
+    for figure in (KINEMATICS_FIGURE, TRACKS_FIGURE):
+        if (folder / figure).is_file():
+            files["figure"] = folder / figure
     record_step(folder, "track", [n for n in (TRACKS, KINEMATICS) if (folder / n).exists()],
                 video=video)
     return RunResult(folder, tracks, kinematics, cal, files, warnings)

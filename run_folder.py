@@ -33,9 +33,11 @@ CALIBRATION = "calibration.json"
 #: (which the other commands read).
 TRACKS_PARQUET = "tracks.parquet"
 KINEMATICS_PARQUET = "kinematics.parquet"
-#: The run's summary for a person, and its kinematics figure.
+#: The run's summary for a person, and its kinematics figure (or, in a run without
+#: kinematics, the figure of its tracks).
 REPORT = "report.md"
 KINEMATICS_FIGURE = "kinematics.png"
+TRACKS_FIGURE = "tracks.png"
 #: `cranktrack compare`: measured and model side by side, the fit, its summary.
 COMPARE_TABLE = "compare.csv"
 COMPARE_FIT = "compare.json"
@@ -60,7 +62,7 @@ MANIFEST = "manifest.json"
 #: of the same video, so a file of the earlier run (kinematics from an earlier
 #: scale, a fit of the earlier tracks) cannot sit beside the new ones.
 RUN_OUTPUTS = (TRACKS, KINEMATICS, TRACKS_PARQUET, KINEMATICS_PARQUET, RUN_INFO,
-               CALIBRATION, REPORT, KINEMATICS_FIGURE, COMPARE_TABLE, COMPARE_FIT,
+               CALIBRATION, REPORT, KINEMATICS_FIGURE, TRACKS_FIGURE, COMPARE_TABLE, COMPARE_FIT,
                COMPARE_REPORT, RECORDING, MANIFEST)
 
 

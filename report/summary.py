@@ -20,6 +20,7 @@ from ..run_folder import (
     REPORT,
     RUN_INFO,
     TRACKS,
+    TRACKS_FIGURE,
     RunFolder,
 )
 from ..tracker.scatter import at_rest, found_xy
@@ -51,6 +52,41 @@ def plot_kinematics(kinematics: pd.DataFrame, comparison: pd.DataFrame | None,
     return out
 
 
+def plot_tracks(tracks: pd.DataFrame, size: tuple[int, int] | None,
+                path: str | os.PathLike) -> Path:
+    """Each marker's found positions: x and y (px) over time, and its path in the
+    frame (y down, as in the picture; ``size`` is the frame's width and height)."""
+    fig = Figure(figsize=(9.0, 5.2))
+    grid = fig.add_gridspec(2, 2, width_ratios=(1.3, 1.0))
+    ax_x, ax_y = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[1, 0])
+    ax_path = fig.add_subplot(grid[:, 1])
+    for m in [c[:-3] for c in tracks.columns if c.endswith("_ok")]:
+        xy = found_xy(tracks, m)
+        t = tracks["t_s"].to_numpy(float)
+        (line,) = ax_x.plot(t, xy[:, 0], ".-", ms=3, lw=0.6, label=m)
+        ax_y.plot(t, xy[:, 1], ".-", ms=3, lw=0.6, color=line.get_color())
+        ax_path.plot(xy[:, 0], xy[:, 1], ".-", ms=3, lw=0.6, color=line.get_color())
+    ax_x.set_ylabel("x (px)")
+    ax_y.set_ylabel("y (px, down)")
+    ax_y.set_xlabel("t (s)")
+    for ax in (ax_x, ax_y, ax_path):
+        ax.grid(alpha=0.3)
+    ax_x.legend(loc="best", fontsize=8)
+    if size:
+        ax_path.set_xlim(0, size[0])
+        ax_path.set_ylim(size[1], 0)
+    else:
+        ax_path.invert_yaxis()
+    ax_path.set_aspect("equal")
+    ax_path.set_xlabel("x (px)")
+    ax_path.set_title("in the frame (gaps where not found)", fontsize=9)
+    fig.suptitle("Tracks (no kinematics: no scale was given)")
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=100)
+    return out
+
+
 def _rest_checks(tracks: pd.DataFrame) -> list[str]:
     """Lines on each marker that stood still (the pivot A): its scatter about where it
     stood against the σ the tracker gave, a check of σ on the run's own footage. It
@@ -73,7 +109,8 @@ def _rest_checks(tracks: pd.DataFrame) -> list[str]:
 
 
 def write_report(run: str | os.PathLike) -> Path:
-    """Write ``run/report.md`` (and ``kinematics.png``) from what the run folder holds."""
+    """Write ``run/report.md`` (and ``kinematics.png``, or ``tracks.png`` in a run without
+    kinematics) from what the run folder holds."""
     run = Path(run)
     folder = RunFolder(run)
     info = folder.read_json(RUN_INFO) or {}
@@ -101,6 +138,13 @@ def write_report(run: str | os.PathLike) -> Path:
         med = f"{np.median(sig[np.isfinite(sig)]):.4f}" if np.isfinite(sig).any() else "–"
         lines.append(f"| {m} | {100 * tracks[f'{m}_ok'].mean():.1f} % | {med} | {st} |")
     lines += _rest_checks(tracks)
+    if kin is None:
+        # Without a scale there are no kinematics to draw: the tracks are what there is.
+        size = (src.get("width"), src.get("height"))
+        fig = plot_tracks(tracks, size if all(size) else None, run / TRACKS_FIGURE)
+        lines += ["", f"![tracks]({fig.name})"]
+    else:
+        (run / TRACKS_FIGURE).unlink(missing_ok=True)  # a figure of the pixel-only run before
     cal = info.get("calibration")
     if cal:
         lines += ["", "## Calibration", "", f"method: {cal.get('method')}", ""]

@@ -66,6 +66,9 @@ def test_synth_then_track(tmp_path, capsys):
     tracks = pd.read_csv(tmp_path / "r" / "tracks.csv")
     assert len(tracks) == 30 and "A_x_mm" not in tracks
     assert not (tmp_path / "r" / "kinematics.csv").exists()
+    # Without kinematics the report shows the tracks.
+    assert "tracks.png" in out and "![tracks](tracks.png)" in (tmp_path / "r" / "report.md"
+                                                               ).read_text()
 
 
 def test_parquet_tables_hold_what_the_csv_files_hold_and_leave_with_the_run(
@@ -234,6 +237,7 @@ def test_measure_adds_kinematics_to_a_pixel_run_and_refuses_in_one_sentence(
     run = tmp_path / "r"
     assert main(["track", str(small_h264.video), "--out", str(run)]) == 0
     assert "cranktrack measure" in capsys.readouterr().out  # the pixel run says how
+    assert (run / "tracks.png").exists()
     for options, says in [([], "has no calibration yet"),
                           (["--known-length", "A-Q=5"], "Q, not among the run's markers"),
                           (["--known-length", "A-C=160.8", "--rolling-shutter-ms", "40"],
@@ -251,6 +255,8 @@ def test_measure_adds_kinematics_to_a_pixel_run_and_refuses_in_one_sentence(
     out = capsys.readouterr().out
     assert "rolling shutter 3 ms" in out and "kinematics.csv" in out
     assert len(pd.read_csv(run / "kinematics.csv")) == len(pd.read_csv(run / "tracks.csv"))
+    # The report now shows the kinematics, and the pixel run's figure is gone.
+    assert (run / "kinematics.png").exists() and not (run / "tracks.png").exists()
     # A compare made before a second measure stands on the kinematics it replaced.
     assert main(["compare", str(run), "--quiet"]) == 0
     capsys.readouterr()
