@@ -477,6 +477,10 @@ def measure_run(run: str | os.PathLike, known_length: tuple[str, str, float] | N
     if not folder.path.is_dir():
         raise CranktrackError(f"{folder.path} is not a folder; give the run folder that "
                               "`cranktrack track VIDEO --out RUN` wrote")
+    if (folder / TRACKER_STATE).exists():
+        raise CranktrackError(f"the run in {folder.path} was interrupted and holds only part "
+                              "of the video's tracks; finish it first with the same `cranktrack "
+                              "track` command and --resume")
     info = folder.read_json(RUN_INFO)
     source = (info or {}).get("source") or {}
     if not info or "tracking" not in info or not source.get("height"):

@@ -250,6 +250,12 @@ def test_measure_adds_kinematics_to_a_pixel_run_and_refuses_in_one_sentence(
         assert not (run / "kinematics.csv").exists()
     assert main(["measure", str(tmp_path / "nowhere")]) == 1
     assert "is not a folder" in capsys.readouterr().err
+    from cranktrack.run_folder import TRACKER_STATE
+
+    (run / TRACKER_STATE).write_bytes(b"")  # as an interrupted track leaves it
+    assert main(["measure", str(run), "--known-length", "A-C=160.8"]) == 1
+    assert "was interrupted" in capsys.readouterr().err
+    (run / TRACKER_STATE).unlink()
     assert main(["measure", str(run), "--known-length", "A-C=160.8",
                  "--rolling-shutter-ms", "3"]) == 0
     out = capsys.readouterr().out
