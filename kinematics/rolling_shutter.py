@@ -7,11 +7,12 @@ A marker low in the frame was therefore seen later than one high in it, and the
 crank's points of one frame are not of one instant: the angle at A and the rigid
 links come out bent where the crank moves fast.
 
-Tracker's public ball toss (a webcam, 480 rows at 30 fps) shows it: a parabola
-whose time is taken per row fits with a readout of 6.7–6.9 ± 1.0 ms over the frame
-(6.6 ± 1.7 from the Tracker user's own clicks alone), and gives g = 9.87 m/s² with
-the metre stick's scale where the frame's time gives 10.04
-(:mod:`..calibration.readout`, ``bench/real_footage.py``).
+The correction is checked against a renderer that draws each row at its own time
+(``bench/rolling_shutter.py``). The readout comes from the closed loop on the
+crank-slider, or from ``cranktrack calibrate readout`` on a ball tossed square to the
+camera (:mod:`..calibration.readout`). On Tracker's public toss, a parabola with its
+time taken per row fits with 6.7–6.9 ± 1.0 ms. A flight plane turned to the camera
+fits it better, though, so that toss does not settle its camera's readout.
 """
 
 from __future__ import annotations
