@@ -286,15 +286,18 @@ def _calibrate_command(sub: argparse._SubParsersAction) -> None:
     q.add_argument("--points", help="CSV of 4+ points: x_px, y_px, x_mm, y_mm (instead of a "
                                     "board)")
     q.add_argument("--out", required=True, help="plane calibration file to write (JSON)")
-    q = cal_sub.add_parser("readout", help="a rolling shutter's readout time, from a run in "
-                                           "which a marker flies freely (a tossed ball)")
+    q = cal_sub.add_parser("readout", help="a rolling shutter's readout time, from a run of "
+                                           "two markers on an upright bar shaken sideways, "
+                                           "or of a ball tossed square to the camera")
     q.add_argument("run", help="run folder written by `cranktrack track`")
-    q.add_argument("--marker", required=True, metavar="NAME",
-                   help="the marker in free flight (e.g. ball)")
+    q.add_argument("--marker", required=True, action="append", metavar="NAME",
+                   help="twice: the two markers on one rigid bar held upright and moved "
+                        "sideways (e.g. --marker top --marker bottom); once: a marker in free "
+                        "flight (e.g. ball)")
     q.add_argument("--start", type=float, metavar="S",
-                   help="the flight starts at this time, s (default: the first fix)")
+                   help="the motion starts at this time, s (default: the first fix)")
     q.add_argument("--end", type=float, metavar="S",
-                   help="the flight ends at this time, s (default: the last fix)")
+                   help="the motion ends at this time, s (default: the last fix)")
 
 
 def _compare_command(sub: argparse._SubParsersAction) -> None:

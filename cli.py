@@ -600,8 +600,13 @@ def cmd_calibrate_plane(args: argparse.Namespace) -> int:
 def cmd_calibrate_readout(args: argparse.Namespace) -> int:
     from .pipeline import readout_from_run
 
-    fit = readout_from_run(args.run, args.marker, args.start, args.end)
-    print(f"{args.marker} in free flight, {fit.fixes} fixes: a readout of "
+    if len(args.marker) > 2:
+        raise CranktrackError("give --marker once (a ball in free flight) or twice (two "
+                              f"markers on one upright bar), not {len(args.marker)} times")
+    if len(args.marker) == 2:
+        return _readout_from_pair(args)
+    fit = readout_from_run(args.run, args.marker[0], args.start, args.end)
+    print(f"{args.marker[0]} in free flight, {fit.fixes} fixes: a readout of "
           f"{fit.readout_s * 1e3:.2f} ± {fit.readout_sigma_s * 1e3:.2f} ms over "
           f"{fit.height_px} rows; residual {fit.residual_px:.3f} px a coordinate "
           f"({fit.residual_global_px:.3f} with all rows at the frame's time), acceleration "
@@ -617,6 +622,31 @@ def cmd_calibrate_readout(args: argparse.Namespace) -> int:
     else:
         print(("if it did, " if fit.tilt_explains_it else "")
               + f"track this camera with: --rolling-shutter-ms {fit.readout_s * 1e3:.2f} (a run "
+              f"already tracked: cranktrack measure RUN --rolling-shutter-ms "
+              f"{fit.readout_s * 1e3:.2f})")
+    return 0
+
+
+def _readout_from_pair(args: argparse.Namespace) -> int:
+    from .pipeline import readout_from_run
+
+    first, second = args.marker
+    fit = readout_from_run(args.run, first, args.start, args.end, second=second)
+    print(f"{first} and {second} on one bar, {fit.fixes} frames: a readout of "
+          f"{fit.readout_s * 1e3:.2f} ± {fit.readout_sigma_s * 1e3:.2f} ms over "
+          f"{fit.height_px} rows; their separation scatters by {fit.residual_px:.3f} px a "
+          f"coordinate about the bar's own with it ({fit.residual_global_px:.3f} with all rows "
+          "at the frame's time)")
+    if fit.residual_px > 0.5:
+        print("that scatter is large: the bar may have turned or come nearer while moving; "
+              "keep it upright, at one distance, and move it sideways only")
+    if abs(fit.readout_s) <= 2.0 * fit.readout_sigma_s:
+        print("that is within 2σ of reading all rows at once: no --rolling-shutter-ms needed")
+    elif fit.readout_s < 0:
+        print("a negative readout: this camera reads the picture's rows from the bottom up "
+              "(is it mounted upside down?); --rolling-shutter-ms takes top to bottom only")
+    else:
+        print(f"track this camera with: --rolling-shutter-ms {fit.readout_s * 1e3:.2f} (a run "
               f"already tracked: cranktrack measure RUN --rolling-shutter-ms "
               f"{fit.readout_s * 1e3:.2f})")
     return 0

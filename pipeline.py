@@ -62,11 +62,12 @@ from .run_folder import (
 from .tracker.gaps import fill_gaps
 from .tracker.marker_state import MarkerState
 from .tracker.markers import DEFAULT_MARKERS, MarkerSpec
+from .tracker.scatter import found_xy
 from .tracker.track import Roi, Span, TrackerState, TrackingInterrupted, track, tracks_table
 from .tracker.video import FrameSource, open_frames
 
 if TYPE_CHECKING:
-    from .calibration.readout import ReadoutFit
+    from .calibration.readout import PairReadoutFit, ReadoutFit
     from .loop.camera_view import CameraView
     from .loop.compare import Comparison
     from .loop.result import LoopResult
@@ -240,11 +241,14 @@ def track_run(
 
 
 def readout_from_run(run: str | os.PathLike, marker: str, start_s: float | None = None,
-                     end_s: float | None = None) -> ReadoutFit:
-    """A rolling shutter's readout from ``marker``'s free flight in the run folder ``run``
-    (:func:`.calibration.readout.readout_from_flight` of its fixes in ``tracks.csv``,
-    with the frame's height from ``run.json``), between ``start_s`` and ``end_s`` (s;
-    the whole run by default): what ``cranktrack calibrate readout`` prints.
+                     end_s: float | None = None, second: str | None = None
+                     ) -> ReadoutFit | PairReadoutFit:
+    """A rolling shutter's readout from the run folder ``run``, between ``start_s`` and
+    ``end_s`` (s; the whole run by default), with the frame's height from ``run.json``:
+    what ``cranktrack calibrate readout`` prints. From ``marker``'s free flight
+    (:func:`.calibration.readout.readout_from_flight`), or, given a ``second`` marker on
+    the same rigid bar moved sideways, from the pair
+    (:func:`.calibration.readout.readout_from_pair`).
 
     Raises
     ------
@@ -252,22 +256,28 @@ def readout_from_run(run: str | os.PathLike, marker: str, start_s: float | None 
         The run has no such marker, does not say the frame's height, or too few fixes.
     """
     # SciPy's optimizers (0.25 s to import) are loaded only here: `track` starts without.
-    from .calibration.readout import readout_from_flight
+    from .calibration.readout import readout_from_flight, readout_from_pair
 
     folder = RunFolder(run)
     tracks = folder.read_tracks()
-    if f"{marker}_ok" not in tracks.columns:
-        markers = sorted(c[:-3] for c in tracks.columns if c.endswith("_ok"))
-        raise CranktrackError(f"{folder / TRACKS} has no marker {marker}; it has "
-                              + ", ".join(markers))
+    names = [marker] if second is None else [marker, second]
+    for name in names:
+        if f"{name}_ok" not in tracks.columns:
+            markers = sorted(c[:-3] for c in tracks.columns if c.endswith("_ok"))
+            raise CranktrackError(f"{folder / TRACKS} has no marker {name}; it has "
+                                  + ", ".join(markers))
     height = ((folder.read_json(RUN_INFO) or {}).get("source") or {}).get("height")
     if not height:
         raise CranktrackError(f"{folder / RUN_INFO} does not say the frame's height; track "
                               "the video again with this version")
     t = tracks["t_s"].to_numpy(float)
-    use = tracks[f"{marker}_ok"].to_numpy(bool, copy=True)
-    use &= t >= (-np.inf if start_s is None else start_s)
-    use &= t <= (np.inf if end_s is None else end_s)
+    within = (t >= (-np.inf if start_s is None else start_s)) & (
+        t <= (np.inf if end_s is None else end_s))
+    if second is not None:
+        # Every frame in the span, found or not: the pair's velocity needs its neighbours.
+        xy = [found_xy(tracks, name)[within] for name in names]
+        return readout_from_pair(t[within], xy[0], xy[1], int(height))
+    use = within & tracks[f"{marker}_ok"].to_numpy(bool)
     xy = tracks.loc[use, [f"{marker}_x_px", f"{marker}_y_px"]].to_numpy(float)
     return readout_from_flight(t[use], xy, int(height))
 

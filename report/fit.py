@@ -82,8 +82,8 @@ RIG_CHECKS = {
     "tilt_horizontal_deg": "square the camera to the rig's plane, or calibrate the plane",
     "readout_s": "the camera's rolling shutter: measure the run again with the readout "
                  "found (`cranktrack measure RUN --rolling-shutter-ms MS`; measure it apart "
-                 "with `cranktrack calibrate readout` on a ball tossed square to the "
-                 "camera), or use a global shutter",
+                 "with `cranktrack calibrate readout` on two markers on a ruler shaken "
+                 "sideways), or use a global shutter",
     "pivot_amp_mm": "fix the bench or the pivot's mount",
 }
 

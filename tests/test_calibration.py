@@ -128,6 +128,14 @@ def _drawn_flight(readout_s: float, rng: np.random.Generator, noise_px: float = 
     return t, at(seen) + rng.normal(0.0, noise_px, (len(t), 2))
 
 
+def _over_draws(fit, draws: int = 40) -> tuple[list, np.ndarray, float]:
+    """``fit()`` over ``draws`` noise draws: the fits, the readouts found (s), and the
+    median jackknife σ over the readouts' scatter (≈ 1 for an honest σ)."""
+    fits = [fit() for _ in range(draws)]
+    found = np.array([f.readout_s for f in fits])
+    return fits, found, float(np.median([f.readout_sigma_s for f in fits]) / found.std())
+
+
 def test_a_rolling_shutters_readout_is_found_from_a_free_flight():
     """Drawn flights (the truth: a parabola, read row by row over 7 ms, or all at once).
     The jackknife σ is checked against the scatter of the readout over 40 noise draws
@@ -135,10 +143,9 @@ def test_a_rolling_shutters_readout_is_found_from_a_free_flight():
     from cranktrack.calibration.readout import readout_from_flight
 
     rng = np.random.default_rng(11)
-    fits = [readout_from_flight(*_drawn_flight(0.007, rng), 480) for _ in range(40)]
-    found = np.array([f.readout_s for f in fits])
+    fits, found, ratio = _over_draws(lambda: readout_from_flight(*_drawn_flight(0.007, rng),
+                                                                 480))
     assert abs(found.mean() - 0.007) < 0.0003, found.mean()
-    ratio = np.median([f.readout_sigma_s for f in fits]) / found.std()
     assert 0.6 < ratio < 1.7, ratio
     assert all(f.residual_px < f.residual_global_px for f in fits)
     assert np.median([f.acceleration_px_s2 for f in fits]) == pytest.approx(4000.0, rel=0.005)
@@ -162,3 +169,49 @@ def test_a_flight_plane_turned_to_the_camera_passes_for_a_readout_and_is_said_to
     fit = readout_from_flight(t, xy + np.random.default_rng(4).normal(0, 0.05, xy.shape), 480)
     assert abs(fit.readout_s) > 0.01 and abs(fit.readout_s) > 4 * fit.readout_sigma_s
     assert fit.residual_tilted_px < 0.07 and fit.tilt_explains_it
+
+
+def _drawn_bar(readout_s: float, rng: np.random.Generator, breathe: float = 0.0,
+               noise_px: float = 0.05, height: int = 480) -> tuple:
+    """A ruler held upright with markers 280 rows apart, shaken sideways at 1.2 Hz (150 px
+    each way), 60 frames at 30 fps, each marker seen when its row is read. ``breathe``
+    moves the ruler towards the camera and back in step with its sideways position
+    (its image grows by that fraction at one end of the shake): perspective alone."""
+    t = np.arange(60) / 30.0
+
+    def at(time: np.ndarray, row: float) -> np.ndarray:
+        phase = np.sin(2 * np.pi * 1.2 * time)
+        scale = 1.0 + breathe * phase
+        return np.c_[320.0 + 150.0 * phase, 240.0 + (row - 240.0) * scale]
+
+    seen = [at(t + readout_s * row / height, row) for row in (100.0, 380.0)]
+    return t, *(s + rng.normal(0.0, noise_px, s.shape) for s in seen)
+
+
+def test_a_readout_from_a_ruler_shaken_sideways_is_not_perspective():
+    """Drawn here: a rigid ruler shaken sideways, read row by row over 7 ms, or all at
+    once while it also moves in depth (perspective alone). The jackknife σ is checked
+    against the scatter over 40 noise draws (a second method)."""
+    from cranktrack.calibration.readout import readout_from_pair
+
+    rng = np.random.default_rng(5)
+    fits, found, ratio = _over_draws(lambda: readout_from_pair(*_drawn_bar(0.007, rng), 480))
+    # Within 50 µs: a three-point velocity, 1 % slow at this shake, put it 80 µs high.
+    assert abs(found.mean() - 0.007) < 0.00005, found.mean()
+    assert 0.5 < ratio < 2.0, ratio
+    assert all(f.residual_px < 0.2 * f.residual_global_px for f in fits)
+    # A ruler coming 5 % nearer and going back in step with the shake, read at once:
+    # its image size changes, but not with its speed, so no readout is found.
+    deep = readout_from_pair(*_drawn_bar(0.0, rng, breathe=0.05), 480)
+    assert abs(deep.readout_s) < max(3 * deep.readout_sigma_s, 0.0005), deep
+
+
+def test_a_ruler_pair_refuses_markers_on_one_row_and_a_ruler_that_did_not_move():
+    from cranktrack.calibration.readout import readout_from_pair
+
+    t, a, _ = _drawn_bar(0.007, np.random.default_rng(6))
+    with pytest.raises(CranktrackError, match="rows apart"):
+        readout_from_pair(t, a, a + np.array([0.0, 20.0]), 480)
+    still = np.tile(a[:1], (len(t), 1))
+    with pytest.raises(CranktrackError, match="hardly moved"):
+        readout_from_pair(t, still, still + np.array([0.0, 280.0]), 480)

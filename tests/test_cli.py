@@ -269,3 +269,30 @@ def test_measure_adds_kinematics_to_a_pixel_run_and_refuses_in_one_sentence(
     assert main(["measure", str(run), "--rolling-shutter-ms", "0"]) == 0
     err = capsys.readouterr().err
     assert "made from an earlier kinematics.csv; run `cranktrack compare` again" in err
+
+
+def test_calibrate_readout_from_two_markers_on_a_bar_shaken_sideways(tmp_path, capsys):
+    import json
+
+    import numpy as np
+    from test_calibration import _drawn_bar
+
+    t, top, bottom = _drawn_bar(0.007, np.random.default_rng(7))
+    run = tmp_path / "ruler"
+    run.mkdir()
+    table = {"frame": np.arange(len(t)), "t_s": t}
+    for name, xy in (("top", top), ("bottom", bottom)):
+        table |= {f"{name}_x_px": xy[:, 0], f"{name}_y_px": xy[:, 1], f"{name}_sigma_px": 0.05,
+                  f"{name}_ok": True, f"{name}_status": "ok"}
+    pd.DataFrame(table).to_csv(run / "tracks.csv", index=False)
+    (run / "run.json").write_text(json.dumps({"source": {"height": 480}}))
+    assert main(["calibrate", "readout", str(run), "--marker", "top", "--marker", "bottom"]) == 0
+    out = capsys.readouterr().out
+    import re
+
+    typed = float(re.search(r"track this camera with: --rolling-shutter-ms ([\d.]+)", out)[1])
+    assert "top and bottom on one bar" in out and abs(typed - 7.0) < 0.1, out
+    assert main(["calibrate", "readout", str(run), "--marker", "top", "--marker", "bottom",
+                 "--marker", "top"]) == 1
+    assert "not 3 times" in capsys.readouterr().err
+
