@@ -217,35 +217,42 @@ def test_a_ruler_pair_refuses_markers_on_one_row_and_a_ruler_that_did_not_move()
         readout_from_pair(t, still, still + np.array([0.0, 280.0]), 480)
 
 
-def test_a_ruler_drawn_row_by_row_is_tracked_and_gives_its_readout(tmp_path):
-    """End to end on pixels: a ruler with a red and a blue disc, shaken sideways and
-    drawn as a rolling shutter reads it (each row at its own time, written here, apart
-    from the fit), tracked from a folder of pictures, then `calibrate readout`'s fit."""
+def ruler_pictures(folder, readout_s: float, shake_px: float, shake_hz: float,
+                   noise_dn: float = 1.0, frames: int = 45, fps: float = 30.0) -> None:
+    """A ruler with a red disc (row 50) and a blue one (row 190), radius 6 px, shaken
+    sideways by ``shake_px`` at ``shake_hz``, drawn into ``folder`` as 320×240 PNGs the
+    way a rolling shutter reads it: each row at its own time, over ``readout_s``."""
     import cv2
 
+    height, width = 240, 320
+    rows = np.arange(height)
+    sub = (np.arange(8) + 0.5) / 8 - 0.5  # 8 × 8 samples per pixel
+    yy = rows[:, None, None, None] + sub[None, :, None, None]
+    xx = np.arange(width)[None, None, :, None] + sub[None, None, None, :]
+    rng = np.random.default_rng(8)
+    for k in range(frames):
+        seen = k / fps + readout_s * rows / height  # each row read at its own time
+        x = 160.0 + shake_px * np.sin(2 * np.pi * shake_hz * seen)  # the ruler, per row
+        picture = np.full((height, width, 3), 200.0)
+        for row0, colour in ((50.0, (40, 40, 220)), (190.0, (220, 60, 40))):  # BGR
+            inside = (xx - x[:, None, None, None]) ** 2 + (yy - row0) ** 2 < 36.0
+            cover = inside.mean(axis=(1, 3))[..., None]
+            picture = picture * (1 - cover) + np.array(colour, float) * cover
+        picture += rng.normal(0.0, noise_dn, picture.shape)
+        cv2.imwrite(str(folder / f"{k:03d}.png"), np.clip(picture, 0, 255).astype(np.uint8))
+
+
+def test_a_ruler_drawn_row_by_row_is_tracked_and_gives_its_readout(tmp_path):
+    """End to end on pixels: the ruler of :func:`ruler_pictures` (its rows drawn at their
+    own times here, apart from the fit), tracked from a folder of pictures, then
+    `calibrate readout`'s fit."""
     from cranktrack.pipeline import readout_from_run, track_run
     from cranktrack.tracker.markers import parse_markers
 
-    height, width, readout, fps = 240, 320, 0.020, 30.0
-    rows = np.arange(height)
-    sub = (np.arange(8) + 0.5) / 8 - 0.5  # 8 × 8 samples per pixel
-    frames = tmp_path / "frames"
-    frames.mkdir()
-    rng = np.random.default_rng(8)
-    for k in range(45):
-        seen = k / fps + readout * rows / height  # each row read at its own time
-        x = 160.0 + 40.0 * np.sin(2 * np.pi * 1.0 * seen)  # the ruler's column, per row
-        picture = np.full((height, width, 3), 200.0)
-        for row0, colour in ((50.0, (40, 40, 220)), (190.0, (220, 60, 40))):  # BGR
-            yy = rows[:, None, None, None] + sub[None, :, None, None]
-            xx = np.arange(width)[None, None, :, None] + sub[None, None, None, :]
-            inside = ((xx - x[:, None, None, None]) ** 2 + (yy - row0) ** 2 < 36.0)
-            cover = inside.mean(axis=(1, 3))[..., None]
-            picture = picture * (1 - cover) + np.array(colour, float) * cover
-        picture += rng.normal(0.0, 1.0, picture.shape)
-        cv2.imwrite(str(frames / f"{k:03d}.png"), np.clip(picture, 0, 255).astype(np.uint8))
+    (tmp_path / "frames").mkdir()
+    ruler_pictures(tmp_path / "frames", 0.020, 40.0, 1.0)
     specs = parse_markers(["top=red@160,50", "bottom=blue@160,190"])
-    track_run(frames, tmp_path / "run", specs=specs, fps=fps)
+    track_run(tmp_path / "frames", tmp_path / "run", specs=specs, fps=30.0)
     fit = readout_from_run(tmp_path / "run", "top", second="bottom")
     assert fit.fixes >= 35
-    assert fit.readout_s == pytest.approx(readout, abs=max(3 * fit.readout_sigma_s, 0.0005))
+    assert fit.readout_s == pytest.approx(0.020, abs=max(3 * fit.readout_sigma_s, 0.0005))
