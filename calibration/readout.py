@@ -194,12 +194,11 @@ def readout_from_pair(t_s: NDArray, first_px: NDArray, second_px: NDArray,
 
     Each marker is seen when its row is read, so the separation the frame shows is
     the bar's own plus the motion in the time between their rows:
-    d = d0 + ρ·(y₂ − y₁)·v, with v the pair's velocity (central differences of its
-    midpoint over five frames) and ρ the readout per row. Unlike a free flight's bend,
-    this is not
-    what perspective does: a bar at a constant distance keeps its image size
-    whatever its speed. Frames with both markers found and two evenly spaced frames
-    either side are used; the 1-σ is the jackknife's.
+    d = d0 + ρ·(y₂ − y₁)·v, with v the pair's velocity (:func:`_five_point_rate` of its
+    midpoint) and ρ the readout per row. Unlike a free flight's bend, this is not what
+    perspective does: a bar at a constant distance keeps its image size whatever its
+    speed. Frames with both markers found and two evenly spaced frames either side are
+    used; the 1-σ is the jackknife's.
 
     Raises
     ------
