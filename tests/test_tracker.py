@@ -286,3 +286,36 @@ def test_a_fast_marker_sheared_by_a_rolling_shutter_is_still_whole(tmp_path):
     run = track_run(tmp_path / "frames", tmp_path / "run", specs=specs, fps=30.0)
     assert run.tracks["top_ok"].sum() >= 44 and run.tracks["bottom_ok"].sum() >= 44
 
+
+
+def test_a_neighbour_of_its_colour_overlapping_a_still_marker_is_still_refused():
+    """What `SAME_AREA` must not let through: a red bar drawn 2 or 4 px into a still red
+    disc of radius 10 raises the visible area by more than 5 %, and is refused. One
+    drawn just touching it moves the area by about 5 %: where that is taken (it
+    depends on the noise), the centre is within 0.02 px of the disc's drawn centre
+    (70.3, 50.6)."""
+    from cranktrack.tracker.markers import MarkerSpec
+    from cranktrack.tracker.track import TrackerState, locate
+
+    s, h, w = 8, 120, 160
+    y, x = (np.mgrid[0:h * s, 0:w * s] + 0.5) / s - 0.5
+
+    def picture(into: float | None, seed: int) -> np.ndarray:
+        cover = ((x - 70.3) ** 2 + (y - 50.6) ** 2 < 100).astype(float)
+        if into is not None:
+            cover = np.maximum(cover, (x > 80.3 - into) & (x < 86.3 - into)
+                               & (np.abs(y - 50.6) < 4))
+        cover = cover.reshape(h, s, w, s).mean((1, 3))[..., None]
+        rgb = 200 * (1 - cover) + np.array([220, 30, 30]) * cover
+        rgb += np.random.default_rng(seed).normal(0, 2.5, rgb.shape)
+        return np.clip(rgb, 0, 255).round().astype(np.uint8)
+
+    for into, seed in ((4.0, 99), (2.0, 99), (0.0, 99), (0.0, 98), (0.0, 97)):
+        state = TrackerState.start([MarkerSpec("B", hue_deg=0)])
+        for k in range(8):
+            locate(picture(None, k), state=state, t_s=k / 30)
+        row = locate(picture(into, seed), state=state, t_s=8 / 30).iloc[0]
+        if into > 0:
+            assert row.status != "ok", (into, row.status)
+        elif row.status == "ok":
+            assert abs(row.x_px - 70.3) < 0.02 and abs(row.y_px - 50.6) < 0.02, row
