@@ -620,10 +620,7 @@ def cmd_calibrate_readout(args: argparse.Namespace) -> int:
         print("that is within 2σ of reading all rows at once: no --rolling-shutter-ms "
               "needed (or the flight chosen is not free: see --start and --end)")
     else:
-        print(("if it did, " if fit.tilt_explains_it else "")
-              + f"track this camera with: --rolling-shutter-ms {fit.readout_s * 1e3:.2f} (a run "
-              f"already tracked: cranktrack measure RUN --rolling-shutter-ms "
-              f"{fit.readout_s * 1e3:.2f})")
+        print(("if it did, " if fit.tilt_explains_it else "") + _readout_option(fit.readout_s))
     return 0
 
 
@@ -646,10 +643,15 @@ def _readout_from_pair(args: argparse.Namespace) -> int:
         print("a negative readout: this camera reads the picture's rows from the bottom up "
               "(is it mounted upside down?); --rolling-shutter-ms takes top to bottom only")
     else:
-        print(f"track this camera with: --rolling-shutter-ms {fit.readout_s * 1e3:.2f} (a run "
-              f"already tracked: cranktrack measure RUN --rolling-shutter-ms "
-              f"{fit.readout_s * 1e3:.2f})")
+        print(_readout_option(fit.readout_s))
     return 0
+
+
+def _readout_option(readout_s: float) -> str:
+    """The options that give a readout (s) found by `calibrate readout` to a run."""
+    ms = f"{readout_s * 1e3:.2f}"
+    return (f"track this camera with: --rolling-shutter-ms {ms} (a run already tracked: "
+            f"cranktrack measure RUN --rolling-shutter-ms {ms})")
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:

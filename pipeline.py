@@ -160,12 +160,8 @@ def _check_before_tracking(source: FrameSource, specs: tuple[MarkerSpec, ...],
         # ω and v_B need a window's worth of frames each side of a row: none would have one.
         raise CranktrackError(f"--window-s {window_s:g} is more than half the video's "
                               f"{source.duration_s:.3g} s; choose a window of a few frames")
-    if readout_s < 0 or (readout_s > 0 and source.nominal_fps
-                         and readout_s >= 1.0 / source.nominal_fps):
-        raise CranktrackError(
-            f"--rolling-shutter-ms {readout_s * 1e3:g} does not fit in one frame of "
-            f"{video} ({1e3 / (source.nominal_fps or 1.0):.3g} ms): give the time from its "
-            "top row to its bottom row, from 0 up to less than a frame")
+    _refuse_long_readout(readout_s, 1.0 / source.nominal_fps if source.nominal_fps
+                         else np.inf, str(video))
 
 
 def track_run(
@@ -238,6 +234,17 @@ def track_run(
             raise
         (folder / TRACKER_STATE).unlink(missing_ok=True)
         return result
+
+
+def _refuse_long_readout(readout_s: float, frame_s: float, what: str) -> None:
+    """Refuse a readout (s) that is negative or not shorter than a frame of ``what``
+    (``frame_s`` s apart; inf where the rate is not known)."""
+    if readout_s == 0.0 or 0.0 < readout_s < frame_s:
+        return
+    raise CranktrackError(
+        f"--rolling-shutter-ms {readout_s * 1e3:g} does not fit in one frame of {what} "
+        f"({frame_s * 1e3:.3g} ms): give the time from its top row to its bottom row, from "
+        "0 up to less than a frame")
 
 
 def readout_from_run(run: str | os.PathLike, marker: str, start_s: float | None = None,
@@ -521,10 +528,7 @@ def measure_run(run: str | os.PathLike, known_length: tuple[str, str, float] | N
         readout_s = float(tracking.get("rolling_shutter_readout_s") or 0.0)
     frame_s = float(np.median(np.diff(tracks["t_s"].to_numpy(float)))) if len(tracks) > 1 \
         else np.inf
-    if readout_s < 0 or readout_s >= frame_s:
-        raise CranktrackError(f"--rolling-shutter-ms {readout_s * 1e3:g} does not fit in one "
-                              f"frame of the run ({frame_s * 1e3:.3g} ms): give the time from "
-                              "its top row to its bottom row, from 0 up to less than a frame")
+    _refuse_long_readout(readout_s, frame_s, "the run")
     if window_s is not None and window_s > np.ptp(tracks["t_s"].to_numpy(float)) / 2:
         raise CranktrackError(f"--window-s {window_s:g} is more than half the run; choose a "
                               "window of a few frames")

@@ -130,12 +130,19 @@ def placed_blob(frame: Frame, state: MarkerState, hsv_cache: dict) -> tuple[Blob
     hsv = balanced_hsv(patch, balance_gains(frame, hsv_cache))
     blob, status, _ = acquire(hsv, state.spec, state.area, near, state.area_gates,
                               lambda spec: find_blobs(hsv, spec, x0, y0))
-    if blob is not None:
-        off = float(np.hypot(blob.x - near[0], blob.y - near[1]))
-        if off > place_reach(blob.radius):
-            state.refuse_far(blob.x, blob.y, off)
-            return None, "not_found"
+    if blob is not None and _off_its_place(state, blob, near):
+        return None, "not_found"
     return blob, status
+
+
+def _off_its_place(state: MarkerState, blob: Blob, near: tuple[float, float]) -> bool:
+    """Does ``blob`` lie beyond :func:`.markers.place_reach` of the place ``near`` the
+    user gave? If so the marker remembers it as refused (for its never-found note)."""
+    off = float(np.hypot(blob.x - near[0], blob.y - near[1]))
+    if off <= place_reach(blob.radius):
+        return False
+    state.refuse_far(blob.x, blob.y, off)
+    return True
 
 
 #: How far (radii) from its one fix a marker seen once may be found by a whole-frame
@@ -150,11 +157,9 @@ def full_frame_blob(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
     blob, status, rivals = acquire(full_hsv(frame, hsv_cache), state.spec, state.area, near,
                                    state.area_gates,
                                    lambda spec: full_blobs(frame, spec, hsv_cache))
-    if blob is not None and pred is None and near is not None:
-        off = float(np.hypot(blob.x - near[0], blob.y - near[1]))
-        if off > place_reach(blob.radius):
-            state.refuse_far(blob.x, blob.y, off)
-            return None, "not_found"  # not yet where the user said it is
+    if blob is not None and pred is None and near is not None \
+            and _off_its_place(state, blob, near):
+        return None, "not_found"  # not yet where the user said it is
     if blob is not None and pred is not None and len(state.history) < 2 and np.hypot(
             blob.x - pred[0], blob.y - pred[1]) > SEEN_ONCE_REACH * (state.radius or blob.radius):
         # Seen once, the marker may be anywhere near (a thrown ball moves 15 radii a
