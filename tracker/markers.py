@@ -310,8 +310,12 @@ def _blobs(mask: NDArray[np.uint8], spec: MarkerSpec, x0: int, y0: int) -> list[
     mask = mask[by0:min(by + bh + 1, h), bx0:min(bx + bw + 1, w)]
     x0, y0 = x0 + bx0, y0 + by0
     n, labels, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
-    blobs = []
+    blobs, merged = [], np.zeros(n, bool)
+    if spec.flat and 2 < n <= REJOIN_MOST and _near_pairs(stats[1:]):
+        blobs = _rejoined(mask, labels, n, spec, x0, y0, merged)
     for k in range(1, n):
+        if merged[k]:
+            continue
         area = float(stats[k, cv2.CC_STAT_AREA])
         if area < spec.min_area_px:
             continue
@@ -325,6 +329,67 @@ def _blobs(mask: NDArray[np.uint8], spec: MarkerSpec, x0: int, y0: int) -> list[
             blob = _core(blob, labels, k, stats[k], x0, y0)
         blobs.append(blob)
     return blobs
+
+
+#: Gaps up to this wide (px) within a marker's colour are bridged when the pieces
+#: make a round blob together (:func:`_rejoined`).
+REJOIN_PX = 5
+#: ...round: its box within this aspect either way, and filled as a disc fills it.
+REJOIN_ASPECT = 1.3
+REJOIN_FILL = (0.65, 0.9)
+#: ...and only for the crank-slider's printed discs, which its wire crosses, in a
+#: mask of at most this many pieces: a busy real frame has thousands of blobs of any
+#: colour (OpenCV's vtest.avi, grass), where joining them cost more than tracking
+#: (tracking against decoding 1.42 → 0.81 there).
+REJOIN_MOST = 64
+
+
+def _near_pairs(boxes: NDArray) -> bool:
+    """Do any two of these boxes (x, y, w, h, …) lie within :data:`REJOIN_PX` of each
+    other and make a round box together? (Most masks have none, and are not closed.)"""
+    x0, y0 = boxes[:, 0], boxes[:, 1]
+    x1, y1 = x0 + boxes[:, 2], y0 + boxes[:, 3]
+    gap_x = np.maximum(x0[:, None], x0[None, :]) - np.minimum(x1[:, None], x1[None, :])
+    gap_y = np.maximum(y0[:, None], y0[None, :]) - np.minimum(y1[:, None], y1[None, :])
+    wide = np.maximum(x1[:, None], x1[None, :]) - np.minimum(x0[:, None], x0[None, :])
+    tall = np.maximum(y1[:, None], y1[None, :]) - np.minimum(y0[:, None], y0[None, :])
+    near = (gap_x <= REJOIN_PX) & (gap_y <= REJOIN_PX) \
+        & (wide <= REJOIN_ASPECT * tall) & (tall <= REJOIN_ASPECT * wide)
+    np.fill_diagonal(near, False)
+    return bool(near.any())
+
+
+def _rejoined(mask: NDArray[np.uint8], labels: NDArray, n: int, spec: MarkerSpec,
+              x0: int, y0: int, merged: NDArray[np.bool_]) -> list[Blob]:
+    """Blobs of one of the crank-slider's discs that a thin line across them cut in
+    pieces, whole again; their pieces are marked in ``merged`` (by label).
+
+    The SMA wire tied at the crank's tip crosses the pivot's disc when the crank
+    is near 180°, and cuts its colour in two (a second renderer's SMA bed,
+    bench/sma_bed_apart.py): the larger piece was taken for the marker, 7.7 px
+    for a 10.4 px disc, and the marker was lost. Pieces are joined only where the
+    mask closed over :data:`REJOIN_PX` makes one round blob of them: two markers
+    side by side make a long one, and stay two."""
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (REJOIN_PX, REJOIN_PX))
+    closed = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, kernel)
+    m, joined, stats, _ = cv2.connectedComponentsWithStats(closed, connectivity=8)
+    inside = labels > 0
+    pairs = np.unique(labels[inside].astype(np.int64) * m + joined[inside])
+    pieces = np.bincount(pairs % m, minlength=m)
+    out = []
+    for j in np.flatnonzero(pieces >= 2):
+        w, h = stats[j, cv2.CC_STAT_WIDTH], stats[j, cv2.CC_STAT_HEIGHT]
+        area = float(stats[j, cv2.CC_STAT_AREA])
+        fill, aspect = area / float(w * h), float(w) / float(h)
+        if not (1 / REJOIN_ASPECT <= aspect <= REJOIN_ASPECT
+                and REJOIN_FILL[0] <= fill <= REJOIN_FILL[1]) or area < spec.min_area_px:
+            continue
+        own = pairs[pairs % m == j] // m
+        merged[own] = True
+        # The centroid and area of the colour's own pixels, not of the bridge.
+        ys, xs = np.nonzero(np.isin(labels, own))
+        out.append(Blob(float(xs.mean()) + x0, float(ys.mean()) + y0, area, fill, aspect))
+    return out
 
 
 #: A blob whose largest inner disc covers at least this fraction of it is taken

@@ -400,9 +400,13 @@ SHADED_MIN_RADIUS_PX = 8.0
 
 
 def shaded(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float],
-           radius: float) -> bool:
+           radius: float, fill_lines_px: int = 0) -> bool:
     """Does the coverage vary across the marker's middle (within half its radius) as
-    on a shaded ball? Then its rim, not a flat disc, says where its centre is."""
+    on a shaded ball? Then its rim, not a flat disc, says where its centre is.
+
+    ``fill_lines_px`` > 0 first fills dark lines up to that wide (px) in ``alpha`` (a
+    grey closing with a disc that wide): a thread or wire across a printed disc,
+    which is no shading. Shading varies over the whole middle and is kept."""
     if radius < SHADED_MIN_RADIUS_PX:
         return False
     h, w = alpha.shape
@@ -411,5 +415,12 @@ def shaded(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float],
         & np.isfinite(alpha)
     if middle.sum() < 5:
         return False
+    if fill_lines_px > 0:
+        # Outside the coverage window counts as dark: a closing takes maxima first, so
+        # it cannot raise the middle above what the marker itself shows.
+        k = 2 * (fill_lines_px // 2) + 1
+        alpha = cv2.morphologyEx(np.where(np.isfinite(alpha), alpha, 0.0).astype(np.float32),
+                                 cv2.MORPH_CLOSE,
+                                 cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
     p10, p90 = np.percentile(alpha[middle], [10, 90])
     return bool(p90 > 0 and (p90 - p10) / p90 > SHADED_SPREAD)

@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 
 from .centre import Centre, blob_centroid, core_peak, weighted_centroid
 from .coverage import local_coverage
-from .disc import fit_disc, fit_disc_cells
+from .disc import fit_disc, fit_disc_cells, line_across
 from .edges import fit_edges
 from .outline import fit_outline, rim_coverage
 from .video import Frame
@@ -51,8 +51,8 @@ def patch_around(image: Frame | NDArray, cx: float, cy: float, half: float
 
 def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius: float,
            marker: NDArray | None = None, init: tuple[float, ...] | None = None,
-           edges: bool | None = None, luminance: bool = False, rim: bool | None = None
-           ) -> tuple[Centre, NDArray | None]:
+           edges: bool | None = None, luminance: bool = False, rim: bool | None = None,
+           wire: bool = False) -> tuple[Centre, NDArray | None]:
     """Sub-pixel centre of a marker near ``guess`` (see the module's docstring).
 
     Chroma unmixing against a ring background, then a blurred-disc fit. A
@@ -73,6 +73,10 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     is taken where the disc fit fails; with False never (a flat marker whose
     disc fit fails is partly hidden, and its rim would be half the cover's
     edge).
+    ``wire``: a thin dark line across the disc (a wire, a thread) is left out of the
+    fit (:func:`.disc.line_across`), as on the crank-slider's printed discs, which
+    its wire crosses; off for other markers, whose own stripes (a cone's tape) are
+    theirs.
     Returns the centre and the chroma seen in its middle.
     """
     if rim is True and init is not None:
@@ -110,11 +114,21 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
         patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
         alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance)
         fit = fit_disc(alpha, x0, y0, guess, radius, init=fit.params, tol_px=tol)
+    fitted = alpha
+    hidden = line_across(alpha, x0, y0, fit) if wire else None
+    if hidden is not None and hidden.any():
+        # A wire or thread across the disc: fitted again without its pixels.
+        clear = np.where(hidden, np.nan, alpha)
+        again = fit_disc(clear, x0, y0, guess, radius, init=fit.params, tol_px=tol)
+        if again.ok:
+            # The marker's visible area is all its coverage, the line's pixels too:
+            # the checks for a covered marker compare it with its usual.
+            fit, fitted = replace(again, area=fit.area), clear
     if fit.ok and edges:
-        fit = fit_edges(patch, alpha, x0, y0, fit, radius) or fit
+        fit = fit_edges(patch, fitted, x0, y0, fit, radius) or fit
     elif fit.ok and cells:
         # The decoder's own 4:2:0 planes: the chroma is refitted where it was stored.
-        fit = fit_disc_cells(alpha, x0, y0, fit)
+        fit = fit_disc_cells(fitted, x0, y0, fit)
     if fit.ok:
         return replace(fit, peak=core_peak(alpha, x0, y0, fit)), seen
     if rim is None:

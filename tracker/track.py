@@ -104,7 +104,8 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict
                     centre, seen = _blob_centre(frame, state, pred, state.motion_px() + 1.0)
                 else:
                     centre, seen = refine(frame, pred, r, state.marker, init=state.shape,
-                                          luminance=luminance, rim=state.rim)
+                                          luminance=luminance, rim=state.rim,
+                                          wire=state.spec.flat)
                 if _plausible(centre, pred, state):
                     if not state.whole(centre):
                         return None, "partly_covered"
@@ -191,6 +192,15 @@ def _likest(frame: Frame, state: MarkerState, hsv_cache: dict, pred: tuple[float
     return best
 
 
+#: Dark lines up to this wide (px) across one of the crank-slider's printed discs are
+#: filled before the disc is judged shaded (:func:`.outline.shaded`): the SMA wire
+#: tied at B, 1.3 px wide and 2–4 px in 4:2:0 chroma on a second renderer's SMA bed
+#: (bench/sma_bed_apart.py), spread B's middle by up to 0.52, and B was rejected in
+#: every frame. Filled, 0.02–0.06; a shaded ball of B's colour stays near 1, and the
+#: flat markers of the design render 0.01–0.03.
+WIRE_FILL_PX = 7
+
+
 def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
                  ) -> tuple[Centre | None, NDArray | None, str]:
     """The refined centre on a blob, what it saw, and why it failed ("" if it did not)."""
@@ -209,7 +219,7 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
         centre, seen = _blob_centre(frame, state, (blob.x, blob.y), 2.0)
         return _whole_and_honest(state, centre, seen)
     centre, seen = refine(frame, (blob.x, blob.y), radius, state.marker, luminance=luminance,
-                          rim=state.rim)
+                          rim=state.rim, wire=state.spec.flat)
     if (state.rim is None or state.spec.flat) and centre.ok:
         # A flat marker's coverage is even over its middle; a shaded ball's falls
         # away from the light, and pulls a disc fit toward it: that one is centred
@@ -218,7 +228,10 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
         patch, x0, y0 = patch_around(frame, centre.x, centre.y, centre.radius + 9)
         alpha, _ = local_coverage(patch, x0, y0, (centre.x, centre.y), centre.radius,
                                   state.marker, luminance)
-        ball = shaded(alpha, x0, y0, (centre.x, centre.y), centre.radius)
+        # The crank-slider's wire is tied at B and may cross A: on a printed disc a
+        # dark line is the wire, not shading.
+        ball = shaded(alpha, x0, y0, (centre.x, centre.y), centre.radius,
+                      WIRE_FILL_PX if state.spec.flat else 0)
         if state.spec.flat:
             # One of the crank-slider's printed discs is never a ball: a shaded
             # blob of its colour (a sleeve, a sign) is something else, and its disc
@@ -249,7 +262,7 @@ def _whole_or_refitted(frame: Frame, state: MarkerState, centre: Centre,
         return first
     again, seen_again = refine(frame, (centre.x, centre.y), radius, state.marker,
                                init=(centre.x, centre.y, *state.shape[2:]),
-                               luminance=luminance, rim=state.rim)
+                               luminance=luminance, rim=state.rim, wire=state.spec.flat)
     second = _whole_and_honest(state, again, seen_again) if again.ok else first
     return second if not second[2] else first
 
