@@ -23,9 +23,9 @@ How it draws (none of it shared with ``synthetic/render.py``):
 - H.264 4:2:0 at crf 20 through PyAV, as a phone or webcam writes.
 
 The motion (truth): the crank angle θ (at A, between A→C and A→B) goes from θ0
-toward θ1 as the wire is heated (first order, time constant τ_h from the current's
-start) and back as it cools (τ_c from its end), Table 2.3's frame L1 = 305 mm and
-crank L2 = 24.1 mm. ``--theta`` sets θ0 and θ1: Table 2.3's 125 → 98° keeps the wire
+toward θ1 while the wire is heated and back as it cools, a critically damped
+response to the current's pulse (:class:`Heating`), with Table 2.3's frame
+L1 = 305 mm and crank L2 = 24.1 mm. ``--theta`` sets θ0 and θ1: Table 2.3's 125 → 98° keeps the wire
 about 19 mm from A; 176 → 160° brings it across marker A for most of the run.
 
 It prints, per case, A's error against where it was drawn (RMS px over the frames,
@@ -79,29 +79,29 @@ ALUMINIUM = (175, 178, 182)
 
 @dataclass(frozen=True)
 class Heating:
-    """θ(t), deg: θ0 until ``on_s``, then first order toward θ1 (``tau_heat_s``); from
-    ``off_s`` first order back toward θ0 (``tau_cool_s``)."""
+    """θ(t), deg: θ0, pulled toward θ1 while the current is on (``on_s`` to ``off_s``)
+    and back after, as a critically damped second-order response with time constant
+    ``tau_s`` (the wire's heating lag and the crank's own), so that ω is continuous
+    and α finite: the pulse is the difference of two step responses
+    S(s) = 1 − (1 + s/τ)·e^(−s/τ)."""
 
     theta0_deg: float = 125.0
     theta1_deg: float = 98.0
     on_s: float = 0.3
     off_s: float = 1.6
-    tau_heat_s: float = 0.35
-    tau_cool_s: float = 0.5
+    tau_s: float = 0.3
 
     def theta(self, t: NDArray) -> tuple[NDArray, NDArray]:
         """θ (deg) and ω (rad/s) at times ``t`` (s)."""
         t = np.asarray(t, float)
+
+        def step(s: NDArray) -> tuple[NDArray, NDArray]:
+            u = np.clip(s, 0.0, None) / self.tau_s
+            return 1.0 - (1.0 + u) * np.exp(-u), u * np.exp(-u) / self.tau_s
+
+        (up, up_rate), (down, down_rate) = step(t - self.on_s), step(t - self.off_s)
         d = self.theta1_deg - self.theta0_deg
-        heat = lambda s: 1.0 - np.exp(-np.clip(s, 0, None) / self.tau_heat_s)  # noqa: E731
-        reached = heat(self.off_s - self.on_s)
-        frac = np.where(t < self.off_s, heat(t - self.on_s),
-                        reached * np.exp(-(t - self.off_s) / self.tau_cool_s))
-        rate = np.where(t < self.on_s, 0.0,
-                        np.where(t < self.off_s,
-                                 np.exp(-(t - self.on_s) / self.tau_heat_s) / self.tau_heat_s,
-                                 -frac / self.tau_cool_s))
-        return self.theta0_deg + d * frac, np.radians(d * rate)
+        return self.theta0_deg + d * (up - down), np.radians(d * (up_rate - down_rate))
 
 
 def points_px(theta_deg: float) -> dict[str, NDArray]:
