@@ -116,3 +116,17 @@ def test_a_disc_cut_by_a_line_is_one_blob_and_two_discs_side_by_side_stay_two():
     assert len(found) == 1 and abs(found[0].radius - 10.4) < 1.0, found
     pair = picture([(80.0, 60.0, 10.4, GREEN), (103.3, 60.0, 10.4, GREEN)])
     assert len([bl for bl in blobs(pair) if bl.area > 20]) == 2
+
+
+def test_lettering_across_a_disc_is_not_taken_for_the_wire():
+    # A red thing printed with dark strokes every way (a box's lettering on a webcam
+    # clip) stays a rejected B: only one line across a disc is a wire.
+    b = (100.3, 60.2)
+    strokes = [((b[0] - 8, b[1] - 6), (b[0] + 8, b[1] - 6), 1.6),
+               ((b[0] - 6, b[1] - 8), (b[0] - 6, b[1] + 8), 1.6),
+               ((b[0] + 5, b[1] - 3), (b[0] - 2, b[1] + 8), 1.6),
+               ((b[0] - 8, b[1] + 4), (b[0] + 8, b[1] + 4), 1.6)]
+    statuses = [locate(picture([(*b, 10.4, RED)], strokes, seed=seed),
+                       (DEFAULT_MARKERS[1],)).set_index("marker").at["B", "status"]
+                for seed in range(3)]
+    assert "ok" not in statuses, statuses

@@ -415,12 +415,31 @@ def shaded(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float],
         & np.isfinite(alpha)
     if middle.sum() < 5:
         return False
+    p10, p90 = np.percentile(alpha[middle], [10, 90])
+    if not (p90 > 0 and (p90 - p10) / p90 > SHADED_SPREAD):
+        return False
     if fill_lines_px > 0:
         # Outside the coverage window counts as dark: a closing takes maxima first, so
         # it cannot raise the middle above what the marker itself shows.
         k = 2 * (fill_lines_px // 2) + 1
-        alpha = cv2.morphologyEx(np.where(np.isfinite(alpha), alpha, 0.0).astype(np.float32),
-                                 cv2.MORPH_CLOSE,
-                                 cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
-    p10, p90 = np.percentile(alpha[middle], [10, 90])
-    return bool(p90 > 0 and (p90 - p10) / p90 > SHADED_SPREAD)
+        filled = cv2.morphologyEx(np.where(np.isfinite(alpha), alpha, 0.0).astype(np.float32),
+                                  cv2.MORPH_CLOSE,
+                                  cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
+        # Only one line: printed text or a pattern (a red box's lettering on a webcam
+        # clip) fills as well, and is no marker.
+        inside = ((xx + x0 - centre[0]) ** 2 + (yy + y0 - centre[1]) ** 2
+                  <= (radius - 3.0) ** 2) & np.isfinite(alpha)
+        raised = inside & (filled - alpha > 0.5 * SHADED_SPREAD * p90)
+        if _one_line(xx[raised], yy[raised]):
+            q10, q90 = np.percentile(filled[middle], [10, 90])
+            return bool(q90 > 0 and (q90 - q10) / q90 > SHADED_SPREAD)
+    return True
+
+
+def _one_line(x: NDArray, y: NDArray) -> bool:
+    """Do these pixels (at least three) lie along one line, at least 1.6 times as long as
+    wide (their spreads along and across)?"""
+    if len(x) < 3:
+        return False
+    spread = np.linalg.eigvalsh(np.cov(np.vstack([x, y]).astype(float)))
+    return bool(spread[1] >= 2.5 * max(spread[0], 1e-9))
