@@ -334,7 +334,7 @@ def _span(start: tuple[float, str] | None, end: tuple[float, str] | None):
 
 def cmd_inspect(args: argparse.Namespace) -> int:
     from .report.survey import write_survey_png
-    from .tracker.survey import frame_and_later, survey
+    from .tracker.survey import crank_slider, frame_and_later, survey
     from .tracker.video import open_frames
 
     video = Path(args.video)
@@ -364,6 +364,14 @@ def cmd_inspect(args: argparse.Namespace) -> int:
         # A folder of pictures has no clock: the command needs the rate given here.
         fps = f" --fps {args.fps:g}" if args.fps else ""
         # Quoted, so that a path with spaces (Tracker's examples have them) pastes.
+        rig = crank_slider(table)
+        if rig is not None:
+            named = " ".join(f"--marker {m}" for m in rig.values())
+            print("\na green, a red and a blue disc: the crank-slider's A, B and C. Track "
+                  "them under those names (then the wire across them is allowed for and "
+                  "the kinematics know which is which), with the A–C length you measured:"
+                  f"\n  cranktrack track {shlex.quote(str(video))}{fps} {named} "
+                  "--known-length A-C=MM --out run")
         print("\nrename the ones you want and track them, e.g.:\n  cranktrack track "
               f"{shlex.quote(str(video))}{fps} {picks} --out run")
     print(f"wrote {out}")

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import av
 import numpy as np
+import pandas as pd
 
 from cranktrack.tracker.markers import DEFAULT_MARKERS, find_blobs
 from cranktrack.tracker.refine import refine
@@ -130,3 +131,35 @@ def test_lettering_across_a_disc_is_not_taken_for_the_wire():
                        (DEFAULT_MARKERS[1],)).set_index("marker").at["B", "status"]
                 for seed in range(3)]
     assert "ok" not in statuses, statuses
+
+
+def test_inspect_names_the_crank_sliders_discs_a_b_and_c(tmp_path, capsys, monkeypatch):
+    import shlex
+
+    import cv2
+
+    from cranktrack.cli import main
+
+    a, b, c = (40.3, 70.2), (22.7, 45.6), (170.4, 72.1)
+    frames = tmp_path / "rig"
+    frames.mkdir()
+    for i, shift in enumerate((0.0, 1.5)):  # B moves a little between the two
+        image = picture([(*a, 8.0, GREEN), (b[0] + shift, b[1], 8.0, RED), (*c, 8.0, BLUE)],
+                        [((b[0] + shift, b[1]), c, 1.4)], seed=i)
+        cv2.imwrite(str(frames / f"f{i:03d}.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+    assert main(["inspect", str(frames), "--fps", "2", "--out", str(tmp_path / "s.png")]) == 0
+    out = capsys.readouterr().out
+    line = next(x for x in out.splitlines() if "--known-length A-C=MM" in x)
+    for name, (x, y) in (("A", a), ("B", b), ("C", c)):
+        assert f"--marker {name}=" in line and f"@{x:.0f},{y:.0f}" in line, line
+    # As printed, with a length in place of MM, it tracks all three.
+    monkeypatch.chdir(tmp_path)
+    assert main([*shlex.split(line.replace("A-C=MM", "A-C=130"))[1:], "--quiet"]) == 0
+    tracks = pd.read_csv(tmp_path / "run" / "tracks.csv")
+    assert tracks[["A_ok", "B_ok", "C_ok"]].all().all()
+    # Without a red disc, no such line.
+    image = picture([(*a, 8.0, GREEN), (*c, 8.0, BLUE)])
+    cv2.imwrite(str(frames / "f000.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+    cv2.imwrite(str(frames / "f001.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+    assert main(["inspect", str(frames), "--fps", "2", "--out", str(tmp_path / "t.png")]) == 0
+    assert "crank-slider" not in capsys.readouterr().out

@@ -15,7 +15,14 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from .markers import COLOUR_HUES_DEG, MarkerSpec, balanced_hsv, find_blobs, white_balance_gains
+from .markers import (
+    COLOUR_HUES_DEG,
+    DEFAULT_MARKERS,
+    MarkerSpec,
+    balanced_hsv,
+    find_blobs,
+    white_balance_gains,
+)
 from .video import Frame
 
 #: Hues searched, 30° apart, each ±20°: every hue falls in at least one window.
@@ -142,3 +149,28 @@ def survey(rgb: NDArray[np.uint8], min_area_px: int = 12, most: int = 12,
     table["marker"] = [f"m{k + 1}={r.colour}@{r.x_px:.0f},{r.y_px:.0f}"
                        for k, r in table.iterrows()]
     return table
+
+
+def crank_slider(table: pd.DataFrame) -> dict[str, str] | None:
+    """The crank-slider's markers among a survey's candidates (:func:`survey`): for
+    each of the default A (green), B (red) and C (blue), the first plain disc whose
+    hue lies in that marker's window, all three of a size (radii within 2× of each
+    other). ``--marker`` values naming them A, B and C, by marker name, or None when
+    any of the three is missing. Named so, they are tracked as the printed discs
+    the defaults are, with the rig's wire taken into account, and the kinematics
+    know which is which; named m1, m2, m3 they are neither."""
+    found: dict[str, pd.Series] = {}
+    for spec in DEFAULT_MARKERS:
+        for _, r in table.iterrows():
+            if r.strip or not r.disc_like or r.colour in ("white", "black") or any(
+                    np.hypot(r.x_px - o.x_px, r.y_px - o.y_px) < 1.0 for o in found.values()):
+                continue
+            if abs((float(r.colour) - spec.hue_deg + 180.0) % 360.0 - 180.0) <= spec.hue_tol_deg:
+                found[spec.name] = r
+                break
+    if len(found) < len(DEFAULT_MARKERS):
+        return None
+    radii = [r.radius_px for r in found.values()]
+    if max(radii) > 2.0 * min(radii):
+        return None
+    return {name: f"{name}={r.colour}@{r.x_px:.0f},{r.y_px:.0f}" for name, r in found.items()}
