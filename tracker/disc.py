@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-import cv2
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
@@ -289,12 +288,15 @@ LINE_NEIGHBOURS = 2
 
 
 @njit(cache=True, nogil=True)
-def _darker_than_disc(alpha: NDArray, x0: float, y0: float, p: NDArray, drop: float
-                      ) -> NDArray:
+def _line_pixels(alpha: NDArray, x0: float, y0: float, p: NDArray, drop: float,
+                 neighbours: int) -> tuple[NDArray, int, int]:
     """Pixels of the disc ``p`` (inside it, or on its blurred rim up to one blur width
-    out) whose coverage lies below the model's by more than ``drop`` of its gain."""
+    out) whose coverage lies below the model's by more than ``drop`` of its gain, and
+    that have at least ``neighbours`` such pixels among their 8; how many, and how
+    many of them lie well inside (within the radius less one blur width). Compiled:
+    it runs on every fit of the crank-slider's discs."""
     h, w = alpha.shape
-    out = np.zeros((h, w), np.bool_)
+    dark = np.zeros((h, w), np.bool_)
     jrow = np.empty(6)
     for i in range(h):
         for j in range(w):
@@ -304,8 +306,25 @@ def _darker_than_disc(alpha: NDArray, x0: float, y0: float, p: NDArray, drop: fl
             x, y = x0 + j, y0 + i
             if math.hypot(x - p[0], y - p[1]) > p[2] + p[3]:
                 continue
-            out[i, j] = a < _disc_point(p, x, y, jrow) - drop * p[4]
-    return out
+            dark[i, j] = a < _disc_point(p, x, y, jrow) - drop * p[4]
+    out = np.zeros((h, w), np.bool_)
+    count, inner = 0, 0
+    for i in range(h):
+        for j in range(w):
+            if not dark[i, j]:
+                continue
+            n = 0
+            for di in range(-1, 2):
+                for dj in range(-1, 2):
+                    ii, jj = i + di, j + dj
+                    if (di or dj) and 0 <= ii < h and 0 <= jj < w and dark[ii, jj]:
+                        n += 1
+            if n >= neighbours:
+                out[i, j] = True
+                count += 1
+                if math.hypot(x0 + j - p[0], y0 + i - p[1]) < p[2] - p[3]:
+                    inner += 1
+    return out, count, inner
 
 
 def line_across(alpha: NDArray, x0: float, y0: float, fit: Centre) -> NDArray[np.bool_]:
@@ -326,21 +345,17 @@ def line_across(alpha: NDArray, x0: float, y0: float, fit: Centre) -> NDArray[np
     cx, cy, r, s, a = p[:5]
     if not (a > 0 and r > 0 and s > 0):
         return none
-    dark = _darker_than_disc(np.asarray(alpha, np.float64), float(x0), float(y0), p,
-                             1.0 - OCCLUDED_GAIN)
-    # A line is pixels side by side; a 4:2:0 frame's rim, a staircase the smooth model
-    # cannot follow, leaves lone ones all round.
-    neighbours = cv2.boxFilter(dark.astype(np.float32), -1, (3, 3), normalize=False)
-    dark &= neighbours >= 1.0 + LINE_NEIGHBOURS
-    count = int(dark.sum())
-    if count < OCCLUDED_MIN_PX or count > OCCLUDED_MAX_FRACTION * math.pi * r * r:
+    # A line is pixels side by side (a 4:2:0 frame's rim, a staircase the smooth model
+    # cannot follow, leaves lone ones all round), and it crosses the disc, not only its
+    # rim: a wire that leaves the marker's edge (tied under it) darkens only the rim's
+    # pixels beside it, and the disc is whole.
+    dark, count, inner = _line_pixels(np.asarray(alpha, np.float64), float(x0), float(y0),
+                                      p, 1.0 - OCCLUDED_GAIN, LINE_NEIGHBOURS)
+    if count < OCCLUDED_MIN_PX or count > OCCLUDED_MAX_FRACTION * math.pi * r * r \
+            or inner < OCCLUDED_MIN_PX:
         return none
     yy, xx = np.mgrid[0:h, 0:w]
     dx, dy = xx + x0 - cx, yy + y0 - cy
-    # Across the disc, not along its rim: a wire that leaves the marker's edge (tied
-    # under it) darkens only the rim's pixels beside it, and the disc is whole.
-    if int((dark & (np.hypot(dx, dy) < r - s)).sum()) < OCCLUDED_MIN_PX:
-        return none
     px, py = dx[dark], dy[dark]
     mx, my = px.mean(), py.mean()
     cov = np.cov(np.vstack([px - mx, py - my]))
