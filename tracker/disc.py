@@ -265,17 +265,17 @@ def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
                   float(p[4]), tuple(float(v) for v in p), float(total))
 
 
-#: A pixel well inside a fitted disc (its edge's blur twice over and a pixel more from
-#: the rim) whose coverage is below this fraction of the disc's gain above its
-#: background has something dark in front of it: a wire, a thread. The SMA wire
-#: (0.5 mm, 1.3 px) across a printed disc on H.264 4:2:0 took its chroma cells down
-#: to 0.64–0.74 of the gain; the disc's own inside scatters by 0.02–0.05.
+#: A pixel of a fitted disc (inside it, or on its rim up to one blur width out) whose
+#: coverage lies below the disc's model by more than 1 − this of the disc's gain has
+#: something dark in front of it: a wire, a thread. The SMA wire (0.5 mm, 1.3 px)
+#: across a printed disc on H.264 4:2:0 took its chroma cells down to 0.64–0.74 of
+#: the gain; the disc's own inside scatters by 0.02–0.05.
 OCCLUDED_GAIN = 0.8
-#: ...and they are a line across it when there are at least :data:`OCCLUDED_MIN_PX`
-#: of them, at most :data:`OCCLUDED_MAX_FRACTION` of the disc's inside, and they
-#: lie along a line (their spread across it under :data:`LINE_HALF_WIDTH_PX`). A
-#: larger or rounder dark part is a cover (a hand, a link), which the tracker's
-#: checks for a partly covered marker are for.
+#: ...and such pixels are a line across it when there are at least
+#: :data:`OCCLUDED_MIN_PX` of them well inside, at most :data:`OCCLUDED_MAX_FRACTION`
+#: of the disc's area in all, and they lie along a line (their spread across it under
+#: :data:`LINE_HALF_WIDTH_PX`). A larger or rounder dark part is a cover (a hand, a
+#: link), which the tracker's checks for a partly covered marker are for.
 OCCLUDED_MIN_PX = 3
 OCCLUDED_MAX_FRACTION = 0.25
 LINE_HALF_WIDTH_PX = 2.5
@@ -369,9 +369,10 @@ def line_across(alpha: NDArray, x0: float, y0: float, fit: Centre) -> NDArray[np
     lo, hi = at[dark].min() - LINE_MARGIN_PX, at[dark].max() + LINE_MARGIN_PX
     # Where the line reaches the rim it goes on beyond it, over the background the
     # coverage was unmixed against: left out to the patch's edge there too.
-    for end in (lo, hi):
-        if math.hypot(mx + end * along[0], my + end * along[1]) >= r - s:
-            lo, hi = (-np.inf, hi) if end == lo else (lo, np.inf)
+    if math.hypot(mx + lo * along[0], my + lo * along[1]) >= r - s:
+        lo = -np.inf
+    if math.hypot(mx + hi * along[0], my + hi * along[1]) >= r - s:
+        hi = np.inf
     return (off <= max(half, 1.0) + LINE_MARGIN_PX) & (at >= lo) & (at <= hi)
 
 
