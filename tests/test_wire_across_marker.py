@@ -7,6 +7,7 @@ pictures are drawn here by area sampling, apart from the tracker."""
 from __future__ import annotations
 
 import av
+import cv2
 import numpy as np
 import pandas as pd
 
@@ -31,8 +32,6 @@ def picture(discs, wires=(), size=(200, 120), seed=0, through_420=False) -> np.n
     y1), width px) over them, a lens's blur (Gaussian, 0.6 px), 1.5 DN of noise;
     through a 4:2:0 decoder's planes and back if asked (as H.264 video stores
     colour)."""
-    import cv2
-
     x, y = _grid(size)
     w, h = size
     image = np.zeros((h, w, 3)) + np.array(BOARD)
@@ -101,8 +100,6 @@ def test_a_wire_across_the_pivot_neither_cuts_it_in_two_nor_moves_it():
 
 
 def test_a_disc_cut_by_a_line_is_one_blob_and_two_discs_side_by_side_stay_two():
-    import cv2
-
     from cranktrack.tracker.markers import balanced_hsv, white_balance_gains
 
     spec = DEFAULT_MARKERS[0]  # A: the crank-slider's green disc
@@ -135,8 +132,6 @@ def test_lettering_across_a_disc_is_not_taken_for_the_wire():
 
 def test_inspect_names_the_crank_sliders_discs_a_b_and_c(tmp_path, capsys, monkeypatch):
     import shlex
-
-    import cv2
 
     from cranktrack.cli import main
 
