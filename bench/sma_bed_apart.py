@@ -1,9 +1,10 @@
 """The SMA bed drawn by a second renderer, written apart from ``synthetic/``, tracked.
 
 Why: every render the tracker had been measured on came from ``synthetic/``, whose
-discs are drawn by the same analytic coverage the tracker's disc fit assumes.
-Issue #20 reported that on an independently made render of the SMA bed (short
-crank, wire crossing near the pivot) the pivot was off by 0.068 px RMS, against
+scenes were written by the same project as the tracker (links narrower than the
+discs, the wire drawn under them). Issue #20 reported that on an independently
+made render of the SMA bed (short crank, wire crossing near the pivot) the pivot
+was off by 0.068 px RMS, against
 0.026–0.034 on the project's own, and θ's ±1σ band held the true angle in 36 % of
 frames (21 % with a 1/60 s exposure). This script is such a renderer. Nothing in it
 comes from ``cranktrack``; only the tracking at the end does.
@@ -15,9 +16,10 @@ How it draws (none of it shared with ``synthetic/render.py``):
   (``cv2.INTER_AREA``); edges are as sharp as the finer grid, and the lens blur is
   a Gaussian of :data:`LENS_BLUR_PX` applied on it;
 - a bench board with a fixed, smooth light pattern and wood-like streaks, an
-  aluminium crank bar (A to B), the pivot's screw under marker A, the SMA wire
-  (0.5 mm, dark grey) from B to C *in front of* marker A, marker discs A (green),
-  B (red), C (blue) printed 8 mm across;
+  aluminium crank bar (A to B, 10 mm wide with rounded ends), marker discs A
+  (green), B (red), C (blue) printed 8 mm across, and the SMA wire (0.5 mm, dark
+  grey) from B's middle to C's, drawn over them (so *in front of* marker A where it
+  crosses it);
 - the exposure averages :data:`EXPOSURE_SAMPLES` pictures over its open time,
   centred on the frame's time; sensor noise is Gaussian, 2.5 DN;
 - H.264 4:2:0 at crf 20 through PyAV, as a phone or webcam writes.
@@ -25,14 +27,16 @@ How it draws (none of it shared with ``synthetic/render.py``):
 The motion (truth): the crank angle θ (at A, between A→C and A→B) goes from θ0
 toward θ1 while the wire is heated and back as it cools, a critically damped
 response to the current's pulse (:class:`Heating`), with Table 2.3's frame
-L1 = 305 mm and crank L2 = 24.1 mm. ``--theta`` sets θ0 and θ1: Table 2.3's 125 → 98° keeps the wire
-about 19 mm from A; 176 → 160° brings it across marker A for most of the run.
+L1 = 305 mm and crank L2 = 24.1 mm. The cases (:data:`CASES`, ``--case N``): Table
+2.3's 125 → 98°, which keeps the wire about 19 mm from A, and 176 → 160°, which
+brings it across marker A for much of the run; each with and without a 1/60 s
+exposure.
 
-It prints, per case, A's error against where it was drawn (RMS px over the frames,
-and the fraction within its ±1σ), and θ's RMS error and ±1σ coverage against the
-truth, over the frames where θ was measured; ω's too.
+It prints, per case and seed, each marker's error against where it was drawn (RMS
+px per axis, the largest, its σ and the fraction within ±1σ), and θ's and ω's RMS
+error and ±1σ coverage against the truth, over the frames where they were measured.
 
-    .venv/bin/python bench/sma_bed_apart.py [--seeds 3] [--keep DIR]
+    .venv/bin/python bench/sma_bed_apart.py [--seeds 3] [--case N] [--keep DIR]
 """
 
 from __future__ import annotations
