@@ -4,10 +4,10 @@ Why: every render the tracker had been measured on came from ``synthetic/``, who
 scenes were written by the same project as the tracker (links narrower than the
 discs, the wire drawn under them). Issue #20 reported that on an independently
 made render of the SMA bed (short crank, wire crossing near the pivot) the pivot
-was off by 0.068 px RMS, against
-0.026–0.034 on the project's own, and θ's ±1σ band held the true angle in 36 % of
-frames (21 % with a 1/60 s exposure). This script is such a renderer. Nothing in it
-comes from ``cranktrack``; only the tracking at the end does.
+was off by 0.068 px RMS, against 0.026–0.034 on the project's own, and θ's ±1σ band
+held the true angle in 36 % of frames (21 % with a 1/60 s exposure). This script is
+such a renderer. Nothing in it comes from ``cranktrack``; only the tracking at the
+end does.
 
 How it draws (none of it shared with ``synthetic/render.py``):
 
