@@ -60,6 +60,12 @@ class ReadoutFit:
         return bool(tilted <= with_readout)
 
 
+def _jackknife_sigma(left_out: list[float]) -> float:
+    """The jackknife's 1-σ of an estimate from its values with each fix left out in turn."""
+    loo = np.asarray(left_out, float)
+    return float(np.sqrt((len(loo) - 1) * np.mean((loo - loo.mean()) ** 2)))
+
+
 def _fit(t: NDArray, xy: NDArray, rho: float) -> tuple[NDArray, NDArray]:
     """Quadratics in t + ρ·y: their coefficients and the residual (px)."""
     te = t + rho * xy[:, 1]
@@ -101,8 +107,7 @@ def readout_from_flight(t_s: NDArray, xy_px: NDArray, height_px: int) -> Readout
     rho = _best_rho(t, xy, step, height_px)
     # Jackknife: ρ with each fix left out in turn.
     keep = ~np.eye(len(t), dtype=bool)
-    loo = np.array([_best_rho(t[k], xy[k], step, height_px) for k in keep])
-    sigma = float(np.sqrt((len(t) - 1) * np.mean((loo - loo.mean()) ** 2)))
+    sigma = _jackknife_sigma([_best_rho(t[k], xy[k], step, height_px) for k in keep])
     coef, resid = _fit(t, xy, rho)
     coef0, resid0 = _fit(t, xy, 0.0)
     tilted = tilted_plane_residual(t, xy)
@@ -228,8 +233,8 @@ def readout_from_pair(t_s: NDArray, first_px: NDArray, second_px: NDArray,
     rho, resid = _pair_fit(rows_apart, velocity, separation)
     n = len(t)
     keep = ~np.eye(n, dtype=bool)
-    loo = np.array([_pair_fit(rows_apart[k], velocity[k], separation[k])[0] for k in keep])
-    sigma = float(np.sqrt((n - 1) * np.mean((loo - loo.mean()) ** 2)))
+    sigma = _jackknife_sigma([_pair_fit(rows_apart[k], velocity[k], separation[k])[0]
+                              for k in keep])
     still = separation - separation.mean(axis=0)
     return PairReadoutFit(rho * height_px, sigma * height_px, int(height_px), n,
                           float(np.sqrt(np.mean(resid**2))), float(np.sqrt(np.mean(still**2))))

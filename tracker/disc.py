@@ -327,24 +327,23 @@ def _line_pixels(alpha: NDArray, x0: float, y0: float, p: NDArray, drop: float,
     return out, count, inner
 
 
-def line_across(alpha: NDArray, x0: float, y0: float, fit: Centre) -> NDArray[np.bool_]:
+def line_across(alpha: NDArray, x0: float, y0: float, fit: Centre
+                ) -> NDArray[np.bool_] | None:
     """The pixels of ``alpha`` (the patch's top-left pixel at image ``x0``, ``y0``) that
     a thin dark line across the disc ``fit`` covers, inside it and where it crosses
-    the rim; none if there is no such line.
+    the rim; None if there is no such line.
 
     A disc fit takes them for the disc's own: where the line crosses the rim, the
     rim seems to recede, and the centre moves away from it. On a second renderer's
     SMA bed (bench/sma_bed_apart.py) the wire tied at C's centre moved C by
     0.05 px (RGB) to 0.10 px (4:2:0) along the wire, with a σ of 0.04 px.
     """
-    h, w = alpha.shape
-    none = np.zeros((h, w), bool)
     if fit.params is None or not fit.ok:
-        return none
+        return None
     p = np.asarray(fit.params, np.float64)
     cx, cy, r, s, a = p[:5]
     if not (a > 0 and r > 0 and s > 0):
-        return none
+        return None
     # A line is pixels side by side (a 4:2:0 frame's rim, a staircase the smooth model
     # cannot follow, leaves lone ones all round), and it crosses the disc, not only its
     # rim: a wire that leaves the marker's edge (tied under it) darkens only the rim's
@@ -353,8 +352,8 @@ def line_across(alpha: NDArray, x0: float, y0: float, fit: Centre) -> NDArray[np
                                       p, 1.0 - OCCLUDED_GAIN, LINE_NEIGHBOURS)
     if count < OCCLUDED_MIN_PX or count > OCCLUDED_MAX_FRACTION * math.pi * r * r \
             or inner < OCCLUDED_MIN_PX:
-        return none
-    yy, xx = np.mgrid[0:h, 0:w]
+        return None
+    yy, xx = np.mgrid[0:alpha.shape[0], 0:alpha.shape[1]]
     dx, dy = xx + x0 - cx, yy + y0 - cy
     px, py = dx[dark], dy[dark]
     mx, my = px.mean(), py.mean()
@@ -363,7 +362,7 @@ def line_across(alpha: NDArray, x0: float, y0: float, fit: Centre) -> NDArray[np
     across, along = axes[:, 0], axes[:, 1]  # the smaller spread first
     half = 2.0 * math.sqrt(max(spread[0], 0.0))
     if half > LINE_HALF_WIDTH_PX or spread[1] < 2.0 * spread[0]:
-        return none
+        return None
     off = np.abs((dx - mx) * across[0] + (dy - my) * across[1])
     at = (dx - mx) * along[0] + (dy - my) * along[1]
     lo, hi = at[dark].min() - LINE_MARGIN_PX, at[dark].max() + LINE_MARGIN_PX

@@ -310,11 +310,11 @@ def _blobs(mask: NDArray[np.uint8], spec: MarkerSpec, x0: int, y0: int) -> list[
     mask = mask[by0:min(by + bh + 1, h), bx0:min(bx + bw + 1, w)]
     x0, y0 = x0 + bx0, y0 + by0
     n, labels, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
-    blobs, merged = [], np.zeros(n, bool)
+    blobs, merged = [], set()
     if spec.flat and 2 < n <= REJOIN_MOST and _near_pairs(stats[1:]):
-        blobs = _rejoined(mask, labels, n, spec, x0, y0, merged)
+        blobs, merged = _rejoined(mask, labels, spec, x0, y0)
     for k in range(1, n):
-        if merged[k]:
+        if k in merged:
             continue
         area = float(stats[k, cv2.CC_STAT_AREA])
         if area < spec.min_area_px:
@@ -359,10 +359,10 @@ def _near_pairs(boxes: NDArray) -> bool:
     return bool(near.any())
 
 
-def _rejoined(mask: NDArray[np.uint8], labels: NDArray, n: int, spec: MarkerSpec,
-              x0: int, y0: int, merged: NDArray[np.bool_]) -> list[Blob]:
+def _rejoined(mask: NDArray[np.uint8], labels: NDArray, spec: MarkerSpec, x0: int, y0: int
+              ) -> tuple[list[Blob], set[int]]:
     """Blobs of one of the crank-slider's discs that a thin line across them cut in
-    pieces, whole again; their pieces are marked in ``merged`` (by label).
+    pieces, whole again, and the labels of those pieces.
 
     The SMA wire tied at the crank's tip crosses the pivot's disc when the crank
     is near 180°, and cuts its colour in two (a second renderer's SMA bed,
@@ -376,7 +376,7 @@ def _rejoined(mask: NDArray[np.uint8], labels: NDArray, n: int, spec: MarkerSpec
     inside = labels > 0
     pairs = np.unique(labels[inside].astype(np.int64) * m + joined[inside])
     pieces = np.bincount(pairs % m, minlength=m)
-    out = []
+    out, merged = [], set()
     for j in np.flatnonzero(pieces >= 2):
         w, h = stats[j, cv2.CC_STAT_WIDTH], stats[j, cv2.CC_STAT_HEIGHT]
         area = float(stats[j, cv2.CC_STAT_AREA])
@@ -385,11 +385,11 @@ def _rejoined(mask: NDArray[np.uint8], labels: NDArray, n: int, spec: MarkerSpec
                 and REJOIN_FILL[0] <= fill <= REJOIN_FILL[1]) or area < spec.min_area_px:
             continue
         own = pairs[pairs % m == j] // m
-        merged[own] = True
-        # The centroid and area of the colour's own pixels, not of the bridge.
+        merged.update(int(k) for k in own)
+        # The centroid of the colour's own pixels, not of the bridge.
         ys, xs = np.nonzero(np.isin(labels, own))
         out.append(Blob(float(xs.mean()) + x0, float(ys.mean()) + y0, area, fill, aspect))
-    return out
+    return out, merged
 
 
 #: A blob whose largest inner disc covers at least this fraction of it is taken

@@ -116,7 +116,7 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
         fit = fit_disc(alpha, x0, y0, guess, radius, init=fit.params, tol_px=tol)
     fitted = alpha
     hidden = line_across(alpha, x0, y0, fit) if wire else None
-    if hidden is not None and hidden.any():
+    if hidden is not None:
         # A wire or thread across the disc: fitted again without its pixels.
         clear = np.where(hidden, np.nan, alpha)
         again = fit_disc(clear, x0, y0, guess, radius, init=fit.params, tol_px=tol)
