@@ -182,7 +182,9 @@ def render(path: Path, heating: Heating, seconds: float, fps: float, exposure_s:
         stream = out.add_stream("libx264", rate=Fraction(fps).limit_denominator(1001))
         stream.width, stream.height = SIZE
         stream.pix_fmt = "yuv420p"
-        stream.options = {"crf": "20", "preset": "fast"}
+        # mbtree=0: with macroblock-tree rate control libx264 coded the same frames
+        # differently from run to run, and no seed made a render again.
+        stream.options = {"crf": "20", "preset": "fast", "x264-params": "mbtree=0"}
         for k in range(round(seconds * fps)):
             picture = av.VideoFrame.from_ndarray(
                 frame(background, heating, k / fps, exposure_s, rng), format="rgb24")

@@ -40,7 +40,10 @@ class VideoWriter:
         else:
             self._stream = self._container.add_stream("libx264", rate=rate)
             self._stream.pix_fmt = "yuv420p"
-            self._stream.options = {"crf": str(crf), "preset": "fast"}
+            # Without macroblock-tree rate control: with it, libx264 (as PyAV calls it)
+            # coded the same frames differently from run to run, so a render, and every
+            # figure measured on it, could not be made again.
+            self._stream.options = {"crf": str(crf), "preset": "fast", "x264-params": "mbtree=0"}
         self._stream.width, self._stream.height = width, height
         self._stream.codec_context.time_base = Fraction(1, TICKS)
         self._last_pts = -1

@@ -20,10 +20,14 @@ def run640(tmp_path_factory):
     # 640×360 H.264 with noise: the smallest size at which 5-sample windows resolve
     # ω at the end of the stroke (at 320×240 a frame next to the stop can be off
     # by most of the step).
-    folder = tmp_path_factory.mktemp("k640")
+    return _run640(tmp_path_factory, seed=1)
+
+
+def _run640(tmp_path_factory, seed: int):
+    folder = tmp_path_factory.mktemp(f"k640_{seed}")
     files = render_scene(SpoolScenario(), folder / "scene",
                          RenderSettings(size=(640, 360), fps=30.0, seconds=2.0, noise_dn=2.5,
-                                        seed=1))
+                                        seed=seed))
     run = track_run(files.video, folder / "run", ("A", "C", 160.8))
     return run, pd.read_csv(files.truth)
 
@@ -46,14 +50,19 @@ def test_rates_within_about_one_percent_of_peak(run640):
     assert np.sqrt(np.mean(err**2)) < 0.02
 
 
-def test_one_sigma_bands_cover_about_two_thirds(run640):
-    run, truth = run640
-    k = run.kinematics
+def test_one_sigma_bands_cover_about_two_thirds(run640, tmp_path_factory):
+    # Pooled over three renders: one render's 60 frames are not enough. Over seeds 1–8
+    # ω's coverage ran from 0.73 to 0.97 (0.81 pooled), and v_B's from 0.71 to 0.90.
+    runs = [run640] + [_run640(tmp_path_factory, seed) for seed in (2, 3)]
     for col in ("omega_rad_s", "vB_mm_s"):
-        e = (k[col] - truth[col]).to_numpy()
-        ok = np.isfinite(e)
-        coverage = np.mean(np.abs(e[ok]) < k[f"{col}_sigma"].to_numpy()[ok])
-        # An honest 1σ covers 68 %; 60 frames leave about ±6 % of sampling spread.
+        inside = []
+        for run, truth in runs:
+            k = run.kinematics
+            e = (k[col] - truth[col]).to_numpy()
+            ok = np.isfinite(e)
+            inside.append(np.abs(e[ok]) < k[f"{col}_sigma"].to_numpy()[ok])
+        coverage = np.mean(np.concatenate(inside))
+        # An honest 1σ covers 68 %; 180 frames leave about ±4 % of sampling spread.
         assert 0.5 < coverage < 0.85, (col, coverage)
 
 
