@@ -74,6 +74,22 @@ def test_the_wire_tied_at_b_does_not_make_it_a_shaded_ball():
     assert worst < 0.04, worst
 
 
+def test_a_nearly_level_wire_tied_at_b_is_still_a_line():
+    # A wire leaving B's middle at a few degrees crosses 4:2:0's chroma rows so that
+    # the cells beside it are raised as much as its own: counted in, its line was as
+    # wide as long (2.2 : 1) and B was a shaded ball (lost in 8 of these 24 pictures).
+    a = (60.3, 90.2)
+    worst = 0.0
+    for seed in range(6):
+        for slope in (0.03, 0.06, 0.1, -0.05):
+            b = (38.3 + 0.37 * seed, 40.2 + 0.29 * seed)
+            c = (b[0] + 150.0, b[1] + 150.0 * slope)
+            image = picture([(*a, 10.4, GREEN), (*b, 10.4, RED), (*c, 10.4, BLUE)],
+                            [(b, c, 1.4)], size=(220, 130), seed=seed, through_420=True)
+            worst = max(worst, _errors(locate(image), {"B": b})["B"])
+    assert worst < 0.05, worst  # found: 0.007–0.026 px
+
+
 def test_a_wire_over_a_disc_is_left_out_of_its_fit():
     b, c = (38.7, 40.6), (165.4, 72.1)
     worst = 0.0

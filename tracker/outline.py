@@ -393,6 +393,16 @@ def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float]
 #: 0.19–0.28 on the Jmol atoms of Tracker's jmoljana clip, 0.33–0.37 on the
 #: Lambert spheres of tests/test_real_footage_like.py.
 SHADED_SPREAD = 0.15
+#: A wire tied at a printed disc's middle (B's) is also a line where only the core of
+#: what the filling raised (by at least this fraction of the middle's coverage) lies
+#: along a line through the disc's centre, within :data:`TIED_PX`. The 4:2:0 chroma
+#: cells beside a nearly level wire are raised too, and with them its line was as
+#: wide as long: on the second renderer's SMA bed at rest (bench/sma_bed_apart.py,
+#: seed 1), spreads along and across 2.2 : 1, and B was rejected for 16 frames. Its
+#: core's spreads are 3.4–21 : 1 and its line passes 0.0–0.6 px from B's centre; a
+#: box's lettering on OpenCV's box.mp4 that passes at this depth lies 1.4–2.4 px off.
+LINE_CORE = 0.2
+TIED_PX = 1.0
 #: Markers smaller than this (radius, px) are never judged shaded: their middle is
 #: a dozen pixels, over which H.264's half-resolution chroma is blurred (a flat
 #: red marker of radius 4.5 px reached a spread of 0.11 at its true centre).
@@ -429,17 +439,28 @@ def shaded(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float],
         # clip) fills as well, and is no marker.
         inside = ((xx + x0 - centre[0]) ** 2 + (yy + y0 - centre[1]) ** 2
                   <= (radius - 3.0) ** 2) & np.isfinite(alpha)
-        raised = inside & (filled - alpha > 0.5 * SHADED_SPREAD * p90)
-        if _one_line(xx[raised], yy[raised]):
+        gain = filled - alpha
+        raised = inside & (gain > 0.5 * SHADED_SPREAD * p90)
+        core = inside & (gain > LINE_CORE * p90)
+        if _one_line(xx[raised], yy[raised]) or _one_line(
+                xx[core], yy[core], (centre[0] - x0, centre[1] - y0), TIED_PX):
             q10, q90 = np.percentile(filled[middle], [10, 90])
             return bool(q90 > 0 and (q90 - q10) / q90 > SHADED_SPREAD)
     return True
 
 
-def _one_line(x: NDArray, y: NDArray) -> bool:
+def _one_line(x: NDArray, y: NDArray, through: tuple[float, float] | None = None,
+              within_px: float = 0.0) -> bool:
     """Do these pixels (at least three) lie along one line, at least 1.6 times as long as
-    wide (their spreads along and across)?"""
+    wide (their spreads along and across), and, if ``through`` is given (px, in their
+    coordinates), does that line pass within ``within_px`` of it?"""
     if len(x) < 3:
         return False
-    spread = np.linalg.eigvalsh(np.cov(np.vstack([x, y]).astype(float)))
-    return bool(spread[1] >= 2.5 * max(spread[0], 1e-9))
+    xy = np.vstack([x, y]).astype(float)
+    spread, axes = np.linalg.eigh(np.cov(xy))
+    if not spread[1] >= 2.5 * max(spread[0], 1e-9):
+        return False
+    if through is None:
+        return True
+    off = xy.mean(axis=1) - np.asarray(through, float)
+    return bool(abs(off @ axes[:, 0]) <= within_px)
