@@ -41,8 +41,9 @@ class VideoWriter:
             self._stream = self._container.add_stream("libx264", rate=rate)
             self._stream.pix_fmt = "yuv420p"
             # Without macroblock-tree rate control: with it, libx264 (as PyAV calls it)
-            # coded the same frames differently from run to run, so a render, and every
-            # figure measured on it, could not be made again.
+            # coded the same frames of some scenes (a still one with fresh noise in every
+            # frame, the SMA bed of bench/sma_bed_apart.py) differently from run to run,
+            # so such a render, and every figure measured on it, could not be made again.
             self._stream.options = {"crf": str(crf), "preset": "fast", "x264-params": "mbtree=0"}
         self._stream.width, self._stream.height = width, height
         self._stream.codec_context.time_base = Fraction(1, TICKS)
