@@ -415,8 +415,10 @@ def shaded(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float],
     on a shaded ball? Then its rim, not a flat disc, says where its centre is.
 
     ``fill_lines_px`` > 0 first fills dark lines up to that wide (px) in ``alpha`` (a
-    grey closing with a disc that wide): a thread or wire across a printed disc,
-    which is no shading. Shading varies over the whole middle and is kept."""
+    grey closing with a disc that wide): a thread or wire across a printed disc, or
+    tied at its middle (:data:`LINE_CORE`), which is no shading. What the filling
+    raises must be one line (not lettering). Shading varies over the whole middle and
+    is kept."""
     if radius < SHADED_MIN_RADIUS_PX:
         return False
     h, w = alpha.shape
