@@ -115,11 +115,12 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
         alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance)
         fit = fit_disc(alpha, x0, y0, guess, radius, init=fit.params, tol_px=tol)
     fitted = alpha
-    hidden = line_across(alpha, x0, y0, fit) if wire else None
+    hidden, start = (_line_across(alpha, x0, y0, fit, init) if wire
+                     else (None, fit.params))
     if hidden is not None:
         # A wire or thread across the disc: fitted again without its pixels.
         clear = np.where(hidden, np.nan, alpha)
-        again = fit_disc(clear, x0, y0, guess, radius, init=fit.params, tol_px=tol)
+        again = fit_disc(clear, x0, y0, guess, radius, init=start, tol_px=tol)
         if again.ok:
             # The marker's visible area is all its coverage, the line's pixels too:
             # the checks for a covered marker compare it with its usual.
@@ -139,6 +140,30 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     if c is None:
         return fit, seen
     return Centre(c.x, c.y, c.sigma, c.radius, True), seen
+
+
+def _line_across(alpha: NDArray, x0: int, y0: int, fit: Centre,
+                 init: tuple[float, ...] | None) -> tuple[NDArray | None, tuple | None]:
+    """A thin dark line across the disc ``fit`` (:func:`.disc.line_across`), and the
+    parameters to fit again from without it.
+
+    A line near the rim draws the fit's edge in: the radius and blur grow to take the
+    line's darkness for the edge's fall-off, and against that widened edge the line is
+    no longer darker than the model. So the line is also looked for against the disc
+    at the fitted centre with the radius and blur the marker had when followed
+    (``init``, its last shape), and the larger of the two lines is left out, the fit
+    starting again from that shape. On the second renderer's SMA bed with the wire
+    across A (bench/sma_bed_apart.py, 176→160°), A's fit had grown to a radius of
+    10.8–13.1 px (10.5 whole) with the wire 5–7 px from its centre, and A was up to
+    0.8 px off."""
+    hidden = line_across(alpha, x0, y0, fit)
+    if init is None or len(init) < 4 or fit.params is None:
+        return hidden, fit.params
+    learned = (fit.x, fit.y, *tuple(init)[-4:-2], *fit.params[4:6])
+    by_shape = line_across(alpha, x0, y0, replace(fit, params=learned))
+    if by_shape is not None and (hidden is None or by_shape.sum() > hidden.sum()):
+        return by_shape, learned
+    return hidden, fit.params
 
 
 #: The rim's background ring lies 3–5 px beyond the radius from where it was laid,
