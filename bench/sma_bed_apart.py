@@ -36,7 +36,10 @@ It prints, per case and seed, each marker's error against where it was drawn (RM
 px per axis, the largest, its σ and the fraction within ±1σ), and θ's and ω's RMS
 error and ±1σ coverage against the truth, over the frames where they were measured.
 
-    .venv/bin/python bench/sma_bed_apart.py [--seeds 3] [--case N] [--keep DIR]
+``--no-wire`` draws the same bed without the wire, to tell its share of the error from
+the bar's and the codec's.
+
+    .venv/bin/python bench/sma_bed_apart.py [--seeds 3] [--case N] [--keep DIR] [--no-wire]
 """
 
 from __future__ import annotations
@@ -136,8 +139,9 @@ def _fine(p: NDArray) -> tuple[int, int]:
     return (round((p[0] * s + (s - 1) / 2) * 16), round((p[1] * s + (s - 1) / 2) * 16))
 
 
-def draw(background: NDArray[np.float32], theta_deg: float) -> NDArray[np.float32]:
-    """One instant's picture on the fine grid."""
+def draw(background: NDArray[np.float32], theta_deg: float, wire: bool = True
+         ) -> NDArray[np.float32]:
+    """One instant's picture on the fine grid (without the SMA wire if not ``wire``)."""
     img = background.copy()
     p = points_px(theta_deg)
     s = SUPERSAMPLE * PX_PER_MM
@@ -154,19 +158,21 @@ def draw(background: NDArray[np.float32], theta_deg: float) -> NDArray[np.float3
     radius = 0.5 * MARKER_MM * s
     for name, colour in (("A", GREEN), ("B", RED), ("C", BLUE)):
         cv2.circle(img, _fine(p[name]), round(radius * 16), colour, -1, cv2.LINE_8, 4)
-    # The wire, tied at B, runs to C over the pivot's marker.
-    cv2.line(img, _fine(p["B"]), _fine(p["C"]), WIRE, max(1, round(WIRE_MM * s)), cv2.LINE_8, 4)
+    if wire:
+        # The wire, tied at B, runs to C over the pivot's marker.
+        cv2.line(img, _fine(p["B"]), _fine(p["C"]), WIRE, max(1, round(WIRE_MM * s)),
+                 cv2.LINE_8, 4)
     return img
 
 
 def frame(background: NDArray[np.float32], heating: Heating, t: float, exposure_s: float,
-          rng: np.random.Generator) -> NDArray[np.uint8]:
+          rng: np.random.Generator, wire: bool = True) -> NDArray[np.uint8]:
     """The camera's picture at frame time ``t`` (s): the exposure's average, the lens's
     blur, down to frame pixels, sensor noise, 8 bits."""
     times = [t] if exposure_s <= 0 else t + exposure_s * (
         (np.arange(EXPOSURE_SAMPLES) + 0.5) / EXPOSURE_SAMPLES - 0.5)
     theta, _ = heating.theta(np.asarray(times))
-    acc = sum(draw(background, th) for th in theta) / len(theta)
+    acc = sum(draw(background, th, wire) for th in theta) / len(theta)
     acc = cv2.GaussianBlur(acc, (0, 0), LENS_BLUR_PX * SUPERSAMPLE)
     small = cv2.resize(acc, SIZE, interpolation=cv2.INTER_AREA)
     small = small + rng.normal(0, NOISE_DN, small.shape)
@@ -174,7 +180,7 @@ def frame(background: NDArray[np.float32], heating: Heating, t: float, exposure_
 
 
 def render(path: Path, heating: Heating, seconds: float, fps: float, exposure_s: float,
-           seed: int) -> None:
+           seed: int, wire: bool = True) -> None:
     """The clip as H.264 4:2:0 (crf 20) at ``path``."""
     rng = np.random.default_rng(seed)
     background = board(np.random.default_rng(1000 + seed))
@@ -187,7 +193,7 @@ def render(path: Path, heating: Heating, seconds: float, fps: float, exposure_s:
         stream.options = {"crf": "20", "preset": "fast", "x264-params": "mbtree=0"}
         for k in range(round(seconds * fps)):
             picture = av.VideoFrame.from_ndarray(
-                frame(background, heating, k / fps, exposure_s, rng), format="rgb24")
+                frame(background, heating, k / fps, exposure_s, rng, wire), format="rgb24")
             for packet in stream.encode(picture):
                 out.mux(packet)
         for packet in stream.encode():
@@ -209,10 +215,11 @@ CASES = (
 )
 
 
-def measure(case: Case, seed: int, folder: Path, seconds: float, fps: float) -> dict[str, float]:
+def measure(case: Case, seed: int, folder: Path, seconds: float, fps: float,
+            wire: bool = True) -> dict[str, float]:
     """Render, track with ``cranktrack`` (A–C = L1 as the known length), compare."""
     video = folder / f"sma_apart_{seed}.mp4"
-    render(video, case.heating, seconds, fps, case.exposure_s, seed)
+    render(video, case.heating, seconds, fps, case.exposure_s, seed, wire)
     run = track_run(video, folder / f"run_{seed}", ("A", "C", L1_MM))
     tracks, kin = run.tracks, run.kinematics
     t = tracks["t_s"].to_numpy(float)
@@ -261,11 +268,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--case", type=int, action="append",
                         help="which of the cases (0-based; repeatable; all by default)")
     parser.add_argument("--keep", type=Path, help="keep the renders and runs in this folder")
+    parser.add_argument("--no-wire", action="store_true",
+                        help="draw no SMA wire: what is left is the bar's and the codec's")
     args = parser.parse_args(argv)
     cases = [CASES[i] for i in args.case] if args.case else list(CASES)
     print(f"SMA bed, second renderer: {SIZE[0]}×{SIZE[1]}, {args.fps:g} fps, {args.seconds:g} s, "
           f"{PX_PER_MM} px/mm, markers {MARKER_MM:g} mm ({MARKER_MM * PX_PER_MM / 2:.1f} px "
-          f"radius), noise {NOISE_DN} DN, H.264 crf 20; {args.seeds} seeds per case")
+          f"radius), noise {NOISE_DN} DN, H.264 crf 20; {args.seeds} seeds per case"
+          + ("; no wire drawn" if args.no_wire else ""))
     for case in cases:
         rows = []
         for seed in range(args.seeds):
@@ -274,7 +284,8 @@ def main(argv: list[str] | None = None) -> None:
                 where = folder or Path(tmp)
                 where.mkdir(parents=True, exist_ok=True)
                 try:
-                    rows.append(measure(case, seed, where, args.seconds, args.fps))
+                    rows.append(measure(case, seed, where, args.seconds, args.fps,
+                                        not args.no_wire))
                 except CranktrackError as e:
                     print(f"\n{case.name}, seed {seed}: cranktrack refused: {e}")
         if not rows:
