@@ -52,11 +52,15 @@ def frame_and_later(frames: Iterable[Frame], wanted: Callable[[Frame], bool]
             return frame, f
     return frame, None
 
+
+def _hue_gap(a_deg: float, b_deg: float) -> float:
+    """How far apart two hues are round the colour circle, deg (0–180)."""
+    return abs((a_deg - b_deg + 180.0) % 360.0 - 180.0)
+
+
 def _colour_name(hue_deg: float) -> str:
     """The named colour nearest a hue (for the label only)."""
-    def gap(h: float) -> float:
-        return abs((hue_deg - h + 180.0) % 360.0 - 180.0)
-    return min(COLOUR_HUES_DEG, key=lambda k: gap(COLOUR_HUES_DEG[k]))
+    return min(COLOUR_HUES_DEG, key=lambda k: _hue_gap(hue_deg, COLOUR_HUES_DEG[k]))
 
 
 def _blobs_table(hsv: NDArray[np.uint8], min_area_px: int) -> pd.DataFrame:
@@ -165,7 +169,7 @@ def crank_slider(table: pd.DataFrame) -> dict[str, str] | None:
             if r.strip or not r.disc_like or r.colour in ("white", "black") or any(
                     np.hypot(r.x_px - o.x_px, r.y_px - o.y_px) < 1.0 for o in found.values()):
                 continue
-            if abs((float(r.colour) - spec.hue_deg + 180.0) % 360.0 - 180.0) <= spec.hue_tol_deg:
+            if _hue_gap(float(r.colour), spec.hue_deg) <= spec.hue_tol_deg:
                 found[spec.name] = r
                 break
     if len(found) < len(DEFAULT_MARKERS):
