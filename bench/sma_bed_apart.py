@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import shutil
 import sys
 import tempfile
 from dataclasses import dataclass
@@ -218,9 +219,14 @@ CASES = (
 def measure(case: Case, seed: int, folder: Path, seconds: float, fps: float,
             wire: bool = True) -> dict[str, float]:
     """Render, track with ``cranktrack`` (A–C = L1 as the known length), compare."""
-    video = folder / f"sma_apart_{seed}.mp4"
-    render(video, case.heating, seconds, fps, case.exposure_s, seed, wire)
-    run = track_run(video, folder / f"run_{seed}", ("A", "C", L1_MM))
+    video = folder / f"sma_apart_{seed}{'' if wire else '_nowire'}.mp4"
+    if not video.exists():
+        # A render kept by --keep is used again: the writer is deterministic
+        # (tests/test_video.py), so the same case and seed give the same clip.
+        render(video, case.heating, seconds, fps, case.exposure_s, seed, wire)
+    runs = folder / f"run_{seed}{'' if wire else '_nowire'}"
+    shutil.rmtree(runs, ignore_errors=True)
+    run = track_run(video, runs, ("A", "C", L1_MM))
     tracks, kin = run.tracks, run.kinematics
     t = tracks["t_s"].to_numpy(float)
     drawn = [points_px(th) for th in case.heating.theta(t)[0]]
@@ -267,7 +273,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--fps", type=float, default=30.0)
     parser.add_argument("--case", type=int, action="append",
                         help="which of the cases (0-based; repeatable; all by default)")
-    parser.add_argument("--keep", type=Path, help="keep the renders and runs in this folder")
+    parser.add_argument("--keep", type=Path, help="keep the renders and runs in this folder; renders found there are used again")
     parser.add_argument("--no-wire", action="store_true",
                         help="draw no SMA wire: what is left is the bar's and the codec's")
     args = parser.parse_args(argv)
