@@ -273,7 +273,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--fps", type=float, default=30.0)
     parser.add_argument("--case", type=int, action="append",
                         help="which of the cases (0-based; repeatable; all by default)")
-    parser.add_argument("--keep", type=Path, help="keep the renders and runs in this folder; renders found there are used again")
+    parser.add_argument("--keep", type=Path,
+                        help="keep the renders and runs in this folder; renders found "
+                             "there are used again")
     parser.add_argument("--no-wire", action="store_true",
                         help="draw no SMA wire: what is left is the bar's and the codec's")
     args = parser.parse_args(argv)
