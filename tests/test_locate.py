@@ -132,6 +132,36 @@ def test_a_marker_still_for_three_frames_is_followed_when_it_moves_off():
         assert state.markers[0].resting == (k >= 3), k
 
 
+def test_a_marker_at_rest_that_sets_off_while_hidden_is_followed():
+    """A marker stands still for ten frames, then sets off at 8 px a frame (1.5 radii),
+    hidden in the first frame of its move (its fit failed there on a real clip: a
+    green LED at rest on yupi's rover-wheel video). Its next two fixes lie off its
+    place, stepping away from it: the marker moved, and is followed from the second
+    on (before, each was refused as a neighbour of its colour, and it was lost)."""
+    state = TrackerState.start([MarkerSpec("B", hue_deg=0)])
+    statuses = []
+    for k in range(20):
+        x = 60.0 + 8.0 * max(k - 9, 0)
+        discs = {} if k == 10 else {"B": (x, 70.0, 5.5)}
+        found = locate(draw(discs, noise_dn=1.0, seed=k), state=state, t_s=k / 30)
+        statuses.append(found.loc[0, "status"])
+        if k >= 12:
+            assert statuses[-1] == "ok", (k, statuses)
+            assert abs(found.loc[0, "x_px"] - x) < 0.05, k
+    assert statuses[10] != "ok" and statuses[11] == "rejected"
+
+
+def test_a_neighbour_of_a_hidden_marker_at_rest_is_still_refused():
+    """While a marker at rest is hidden, a disc of its colour 15 px (2.7 radii) away
+    stays where it is: not a marker that moved off, so it is refused frame after
+    frame (vtest.avi's road sign and the orange patch below it)."""
+    state = TrackerState.start([MarkerSpec("B", hue_deg=0)])
+    for k in range(16):
+        discs = {"B": (60.0, 70.0, 5.5)} if k < 8 else {"B": (75.0, 70.3, 5.5)}
+        found = locate(draw(discs, noise_dn=1.0, seed=k), state=state, t_s=k / 30)
+        assert (found.loc[0, "status"] == "ok") == (k < 8), k
+
+
 def test_a_whole_disc_refound_by_its_blob_is_whole():
     """After the crank's turn above, the parabola through the fixes predicts 9.5 px
     too far, the fit there fails, and the disc is refound by its blob. Fitted from

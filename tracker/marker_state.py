@@ -78,6 +78,17 @@ REST_STEPS = 3
 #: (3.5 radii) apart whenever a fit failed: about half its frames on each.
 REST_REACH = 1.5
 REST_MEMORY = 64
+#: ...unless it has moved off: fixes refused so in two frames in a row that step apart
+#: by at least this many radii, the second farther from its place, are a marker that
+#: has started to move (:meth:`MarkerState.moved_off`); a neighbour of its colour
+#: stays where it is. On yupi's rover-wheel clip (Viera2017.mp4) a green LED at rest
+#: for 163 frames set off at 4–6 px a frame (1.3–2 radii), its first fit on the move
+#: failed, and every later fix was refused as off its place: lost for good.
+MOVE_STEP = 0.5
+#: ...and the step on from the first refused fix keeps within 45° of the way from the
+#: place to it (the cosine): a marker sets off along a path. On box.mp4 (no markers),
+#: the defaults went from things at rest to others 170 px away, turning 56° and 140°.
+MOVE_ALIGN = 0.7
 
 #: The step (px) before a fix that all but stops, from which the fix is taken for a
 #: repeated picture when predicting: slower, a stall changes the prediction by less
@@ -148,6 +159,9 @@ class MarkerState:
     resting: bool = False
     #: Whether each of the last :data:`REST_STEPS` steps between fixes was short.
     short_steps: list[bool] = field(default_factory=list)
+    #: The last fix refused as off a resting marker's place since its last fix
+    #: (t s, x px, y px), for :meth:`moved_off`.
+    stray: tuple[float, float, float] | None = None
     notes: list[str] = field(default_factory=list)  # things the user should hear about
     #: The nearest blob refused as too far from where the user placed the marker
     #: (x px, y px, distance px), to name if the marker is never found.
@@ -379,6 +393,7 @@ class MarkerState:
         kept = history[1 - HISTORY_FIXES:] if self.missed <= KEEP_MOTION_MISSED else []
         self.history = [*kept, (t, x, y)]
         self.missed = 0
+        self.stray = None
         # Standing still or moving, remembered past a loss, as are the steps before
         # it. One step out of line (a poor fit) does not end a rest: two do.
         if len(self.history) >= 2 and self.radius is not None:
@@ -403,6 +418,28 @@ class MarkerState:
                 and self.missed <= REST_MEMORY
                 and float(np.hypot(centre.x - pred[0], centre.y - pred[1]))
                 > REST_REACH * self.radius)
+
+    def moved_off(self, centre: Centre, t: float) -> bool:
+        """Has the resting marker moved off its place, ``centre`` (at ``t`` s) being
+        refused by :meth:`off_its_place`? Yes where the fix refused before it (since the
+        last fix taken) lies at least :data:`MOVE_STEP` radii back along the way from
+        the place (within :data:`MOVE_ALIGN`): the motion is taken up from those two
+        fixes (the refused one enters the history). A neighbour of the marker's colour
+        found in its stead stays put, and is refused frame after frame."""
+        before, self.stray = self.stray, (t, centre.x, centre.y)
+        if before is None or not self.history or self.radius is None:
+            return False
+        t0, x0, y0 = before
+        _, xr, yr = self.history[-1]
+        out = (x0 - xr, y0 - yr)  # from its place to the first refused fix
+        on = (centre.x - x0, centre.y - y0)  # and on from there
+        step = math.hypot(*on)
+        if step < MOVE_STEP * self.radius or \
+                on[0] * out[0] + on[1] * out[1] < MOVE_ALIGN * step * math.hypot(*out):
+            return False
+        self.resting, self.short_steps, self.stray = False, [], None
+        self.history, self.missed, self.surprise_px = [(t0, x0, y0)], 0, None
+        return True
 
     def motion_px(self) -> float:
         """How far the marker may be from its prediction for its motion, px: the last

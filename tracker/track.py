@@ -147,7 +147,7 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict
         centre, seen = _likest(frame, state, hsv_cache, pred, blob, centre, seen)
     if failure:
         return None, failure
-    if state.off_its_place(centre, pred):
+    if state.off_its_place(centre, pred) and not state.moved_off(centre, t):
         return None, "rejected"  # a neighbour of its colour, not a marker at rest
     if state.radius is None:
         state.radius = centre.radius
