@@ -353,12 +353,17 @@ def footage(repo: Path, clip: Clip) -> Footage | None:
 
 
 def add_clip_paths(ap: argparse.ArgumentParser) -> None:
-    """The two checkouts the real-footage benches read, as options of ``ap``."""
+    """The checkouts the real-footage benches read, as options of ``ap``."""
     ap.add_argument("tracker", nargs="?", type=Path,
                     help="a checkout of OpenSourcePhysics/tracker, or its git directory")
     ap.add_argument("--pendulum", type=Path,
                     help="a checkout of juangomez177/Pendulum_Oscillatory_Motion, or its "
                          "git directory")
+    ap.add_argument("--rover", type=Path,
+                    help="a checkout of yupidevs/yupi_examples, or its git directory")
+    ap.add_argument("--yupi-python", type=Path,
+                    help="a Python with yupi installed, to make yupi's own track of the "
+                         "rover's LED (bench/yupi_peer.py)")
 
 
 def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
@@ -614,14 +619,154 @@ def run_pendulum(repo: Path) -> None:
           f"(ratio decode/track {decode_s / track_s:.2f}; aim ≥ 0.9 on clips over 10 s)")
 
 
+#: A scaled rover wheel driven over sand on an arm that turns about a central pivot,
+#: filmed from above (700×480 H.264, 30 fps, 390 frames), from the public repository
+#: yupidevs/yupi_examples (``resources/videos/Viera2017.mp4``; Viera-López et al.,
+#: Rev. Sci. Instrum. 88, 086107, 2017). A green LED on the wheel's motor rests for
+#: about 5 s, rides round the pivot on the arm for about 1.5 s, and goes out; the
+#: pivot is a red disc in a white collar. The crank-slider's own case, A at a pivot
+#: and B on the member that turns about it, on a real camera. The peer is yupi's own
+#: colour tracker (``bench/yupi_peer.py``); the physics is rest, then a circle.
+ROVER = ("Viera2017.mp4", "led=120@423,111", "pivot=red@305,245")
+#: The LED is lit in a frame whose greenest pixel (G − max(R, B)) reaches this (DN): a
+#: rule made here, apart from both trackers (38–81 while lit, 11–23 after).
+LIT_DN = 30
+#: The arm has set off in the first frame whose greenest pixel lies this far (px) from
+#: where it lay in the first frame.
+SET_OFF_PX = 3.0
+
+
+def greenest(video: Path) -> tuple[NDArray, NDArray]:
+    """Per frame, how much greener than red and blue its greenest pixel is (DN), and
+    where it lies (n, 2) px."""
+    level, where = [], []
+    for frame in open_frames(video, None).frames():
+        rgb = frame.rgb.astype(np.int16)
+        g = rgb[..., 1] - np.maximum(rgb[..., 0], rgb[..., 2])
+        i, j = np.unravel_index(int(np.argmax(g)), g.shape)
+        level.append(int(g[i, j]))
+        where.append((j, i))
+    return np.array(level), np.array(where, float)
+
+
+def circle_fit(xy: NDArray) -> tuple[NDArray, float, NDArray]:
+    """Centre (px), radius (px) and the radial residuals (px) of the circle nearest the
+    points ``xy`` (n, 2): Kåsa's algebraic fit, then Gauss–Newton on the distances."""
+    A = np.c_[2 * xy, np.ones(len(xy))]
+    c = np.linalg.lstsq(A, (xy**2).sum(axis=1), rcond=None)[0]
+    centre, radius = c[:2], float(np.sqrt(c[2] + c[0] ** 2 + c[1] ** 2))
+    for _ in range(20):
+        d = xy - centre
+        rho = np.hypot(d[:, 0], d[:, 1])
+        J = np.c_[-d / rho[:, None], -np.ones(len(xy))]
+        step = np.linalg.lstsq(J, -(rho - radius), rcond=None)[0]
+        centre, radius = centre + step[:2], radius + float(step[2])
+        if np.abs(step).max() < 1e-9:
+            break
+    d = xy - centre
+    return centre, radius, np.hypot(d[:, 0], d[:, 1]) - radius
+
+
+def yupi_track(video: Path, python: Path, start: tuple[float, float]) -> pd.DataFrame | None:
+    """The peer's track of the LED (``bench/yupi_peer.py`` under ``python``), or None,
+    said, where it could not be made."""
+    script = Path(__file__).resolve().parent / "yupi_peer.py"
+    try:
+        out = subprocess.run([str(python), str(script), str(video), str(round(start[0])),
+                              str(round(start[1]))], capture_output=True, text=True,
+                             check=True).stdout
+    except (OSError, subprocess.CalledProcessError) as e:
+        print(f"  yupi's track could not be made with {python} ({e}); skipped")
+        return None
+    from io import StringIO
+    return pd.read_csv(StringIO(out))
+
+
+def at_rest_line(name: str, xy: NDArray, sigma: NDArray) -> str:
+    """Scatter about the median of a marker's fixes at rest, its σ and its coverage."""
+    d = xy - np.median(xy, axis=0)
+    spread = 1.4826 * np.median(np.abs(d), axis=0)
+    return (f"{name}: scatter (MAD) x {spread[0]:.3f}, y {spread[1]:.3f} px, largest "
+            f"{np.abs(d).max():.2f} px; σ median {np.median(sigma):.3f} px; ±1σ coverage "
+            f"{100 * np.mean(np.abs(d) <= sigma[:, None]):.0f} % (aim 50–90 %)")
+
+
+def run_rover(repo: Path, yupi_python: Path | None) -> None:
+    """Track the LED and the pivot, check rest and the circle, compare with yupi."""
+    name, led_marker, pivot_marker = ROVER
+    video = _extract(repo, name, folder="resources/videos")
+    if video is None:
+        print(f"\n{name}: not in {repo}; skipped")
+        return
+    specs = parse_markers([led_marker, pivot_marker])
+    t0 = time.perf_counter()
+    tab = track(open_frames(video, None), specs).tracks
+    track_s = time.perf_counter() - t0
+    decode_s = decode_seconds(video, None)
+    level, brightest = greenest(video)
+    lit = level >= LIT_DN
+    moved = np.hypot(*(brightest - brightest[0]).T) > SET_OFF_PX
+    off = int(np.argmax(moved & lit))  # the first frame of the arm's turn
+    last = int(np.flatnonzero(lit)[-1])
+    ok = tab["led_ok"].to_numpy(bool)
+    print(f"\n{name} (yupi's rover wheel, {len(tab)} frames): `--marker {led_marker} "
+          f"--marker {pivot_marker}`")
+    print(f"  the LED is lit in {lit.sum()} frames (greenest pixel ≥ {LIT_DN} DN above red "
+          f"and blue), at rest until frame {off - 1}, on the move in frames {off}–{last}")
+    print(f"  LED found in {ok[lit].sum()} of the {lit.sum()} frames it is lit "
+          f"({100 * ok[lit].mean():.1f} %; aim ≥ 95 %): {ok[:off][lit[:off]].sum()} of "
+          f"{lit[:off].sum()} at rest, {ok[off:last + 1].sum()} of {last + 1 - off} on the "
+          f"move; in {ok[~lit].sum()} of the {(~lit).sum()} frames it is out")
+    xy = tab[["led_x_px", "led_y_px"]].to_numpy(float)
+    sigma = tab["led_sigma_px"].to_numpy(float)
+    pivot = tab[["pivot_x_px", "pivot_y_px"]].to_numpy(float)
+    pivot_ok = tab["pivot_ok"].to_numpy(bool)
+    rest = np.arange(len(tab)) < off
+    print("  at rest, " + at_rest_line("LED", xy[rest & ok], sigma[rest & ok]))
+    print("  at rest, " + at_rest_line("pivot", pivot[rest & pivot_ok],
+                                       tab["pivot_sigma_px"].to_numpy(float)[rest & pivot_ok]))
+    turn = ~rest & ok & (np.arange(len(tab)) <= last)
+    centre, radius, r = circle_fit(xy[turn])
+    dof = np.sqrt(r.size / (r.size - 3))
+    print(f"  on the move: a circle through our {turn.sum()} fixes (centre ({centre[0]:.1f}, "
+          f"{centre[1]:.1f}), radius {radius:.1f} px; the pivot's fix at rest "
+          f"{np.hypot(*(centre - np.median(pivot[rest & pivot_ok], axis=0))):.1f} px from its "
+          f"centre) leaves {np.sqrt(np.mean(r**2)):.3f} px RMS across it; ±1σ coverage "
+          f"{100 * np.mean(dof * np.abs(r) <= sigma[turn]):.0f} % (σ median "
+          f"{np.median(sigma[turn]):.3f} px; aim 50–90 %); lag-1 correlation of the "
+          f"residual {np.corrcoef(r[:-1], r[1:])[0, 1]:+.2f} (near +1: the arm's own "
+          "wobble or a slow error, not noise)")
+    if yupi_python is not None:
+        peer = yupi_track(video, yupi_python, tuple(xy[np.flatnonzero(ok)[0]]))
+        if peer is not None:
+            theirs = peer[peer["found"] == 1].set_index("frame")[["x_px", "y_px"]]
+            peer_turn = [k for k in theirs.index if off <= k <= last]
+            _, _, r_peer = circle_fit(theirs.loc[peer_turn].to_numpy(float))
+            both = [k for k in theirs.index if ok[k]]
+            diff = xy[both] - theirs.loc[both].to_numpy(float)
+            offset = diff.mean(axis=0)
+            rms = float(np.sqrt(np.mean(np.sum((diff - offset) ** 2, axis=1))))
+            print(f"  yupi's colour tracker (whole-pixel centroids) found it in "
+                  f"{len(theirs)} frames; against it, on the {len(both)} both found: offset "
+                  f"({offset[0]:+.2f}, {offset[1]:+.2f}) px, RMS after removing it {rms:.2f} px "
+                  f"(aim ≤ 1 px); its own circle over the move leaves "
+                  f"{np.sqrt(np.mean(r_peer**2)):.3f} px across it")
+    else:
+        print("  no --yupi-python given: yupi's own track not made")
+    print(f"  time: tracking {track_s:.2f} s, decoding alone {decode_s:.2f} s "
+          f"(ratio decode/track {decode_s / track_s:.2f}; aim ≥ 0.9 on clips over 10 s)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     add_clip_paths(ap)
     args = ap.parse_args()
-    given = [p for p in (args.tracker, args.pendulum) if p is not None and p.exists()]
+    given = [p for p in (args.tracker, args.pendulum, args.rover)
+             if p is not None and p.exists()]
     if not given:
         print("usage: bench/real_footage.py [PATH-TO-OpenSourcePhysics/tracker] "
-              "[--pendulum PATH-TO-juangomez177/Pendulum_Oscillatory_Motion] (checkouts or "
+              "[--pendulum PATH-TO-juangomez177/Pendulum_Oscillatory_Motion] "
+              "[--rover PATH-TO-yupidevs/yupi_examples [--yupi-python PYTHON]] (checkouts or "
               "their git directories); no path given, nothing measured")
         return
     # The kernels compiled (or read from numba's cache) before any clip is timed.
@@ -637,6 +782,8 @@ def main() -> None:
             compare_drag(falls)
     if args.pendulum is not None and args.pendulum.exists():
         run_pendulum(args.pendulum)
+    if args.rover is not None and args.rover.exists():
+        run_rover(args.rover, args.yupi_python)
 
 
 if __name__ == "__main__":
