@@ -684,6 +684,8 @@ def yupi_track(video: Path, python: Path, start: tuple[float, float]) -> pd.Data
 
 def at_rest_line(name: str, xy: NDArray, sigma: NDArray) -> str:
     """Scatter about the median of a marker's fixes at rest, its σ and its coverage."""
+    if len(xy) < 10:
+        return f"{name}: found in {len(xy)} frames, too few to judge"
     d = xy - np.median(xy, axis=0)
     spread = 1.4826 * np.median(np.abs(d), axis=0)
     return (f"{name}: scatter (MAD) x {spread[0]:.3f}, y {spread[1]:.3f} px, largest "
@@ -726,6 +728,9 @@ def run_rover(repo: Path, yupi_python: Path | None) -> None:
     print("  at rest, " + at_rest_line("pivot", pivot[rest & pivot_ok],
                                        tab["pivot_sigma_px"].to_numpy(float)[rest & pivot_ok]))
     turn = ~rest & ok & (np.arange(len(tab)) <= last)
+    if turn.sum() < 6:
+        print(f"  on the move: found in {turn.sum()} frames, too few for a circle")
+        return
     centre, radius, r = circle_fit(xy[turn])
     dof = np.sqrt(r.size / (r.size - 3))
     print(f"  on the move: a circle through our {turn.sum()} fixes (centre ({centre[0]:.1f}, "
