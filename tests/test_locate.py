@@ -151,6 +151,26 @@ def test_a_marker_at_rest_that_sets_off_while_hidden_is_followed():
     assert statuses[10] != "ok" and statuses[11] == "rejected"
 
 
+def test_a_resting_marker_that_set_off_is_looked_for_on_its_way():
+    """Hidden for two frames as it sets off at 12 px a frame (2.2 radii), the marker is
+    refused in the next (off its place), and one frame later lies 48 px from where it
+    stood, beyond the window a marker at rest is looked for in. It is looked for on
+    the way from its place through the refused fix too, and found there at once
+    (before, only by the whole-frame search five frames later)."""
+    state = TrackerState.start([MarkerSpec("B", hue_deg=0)])
+    statuses = []
+    for k in range(16):
+        x = 60.0 + 12.0 * max(k - 9, 0)
+        discs = {} if k in (10, 11) else {"B": (x, 70.0, 5.5)}
+        found = locate(draw(discs, size=(320, 150), noise_dn=1.0, seed=k), state=state,
+                       t_s=k / 30)
+        statuses.append(found.loc[0, "status"])
+        if k >= 13:
+            assert statuses[-1] == "ok", (k, statuses)
+            assert abs(found.loc[0, "x_px"] - x) < 0.05, k
+    assert statuses[12] == "rejected", statuses
+
+
 def test_a_neighbour_of_a_hidden_marker_at_rest_is_still_refused():
     """While a marker at rest is hidden, a disc of its colour 15 px (2.7 radii) away
     stays where it is: not a marker that moved off, so it is refused frame after

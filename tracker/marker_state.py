@@ -441,6 +441,24 @@ class MarkerState:
         self.history, self.missed, self.surprise_px = [(t0, x0, y0)], 0, None
         return True
 
+    def set_off_prediction(self, t: float) -> tuple[float, float] | None:
+        """Where a resting marker would be at ``t`` (s) had the fix last refused off its
+        place (:meth:`moved_off`) been it setting off: on along the line from its place
+        through that fix, at that pace (px). None without such a fix."""
+        if self.stray is None or not self.resting or not self.history:
+            return None
+        (tr, xr, yr), (t0, x0, y0) = self.history[-1], self.stray
+        if t0 <= tr:
+            return None
+        k = (t - t0) / (t0 - tr)
+        return x0 + k * (x0 - xr), y0 + k * (y0 - yr)
+
+    def stray_step(self) -> float:
+        """How far the fix last refused off the marker's place lies from it, px."""
+        if self.stray is None or not self.history:
+            return 0.0
+        return math.hypot(self.stray[1] - self.history[-1][1], self.stray[2] - self.history[-1][2])
+
     def motion_px(self) -> float:
         """How far the marker may be from its prediction for its motion, px: the last
         step, or less where the fixes have kept close to their predictions (a falling

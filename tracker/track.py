@@ -77,6 +77,20 @@ def _honest(c: Centre) -> bool:
     return bool(np.isfinite(c.sigma) and 0 < c.sigma < c.radius)
 
 
+def _window_blob(frame: Frame, state: MarkerState, at: tuple[float, float], half: float,
+                 hsv_cache: dict) -> tuple[Blob | None, str]:
+    """The blob of the marker's colour and size nearest ``at`` (px) within ``half`` px
+    of it, and :func:`.markers.choose_blob`'s status."""
+    patch, x0, y0 = patch_around(frame, at[0], at[1], half)
+    if patch.size == 0:  # a window wholly off the frame
+        return None, "not_found"
+    hsv = balanced_hsv(patch, hsv_cache.get("gains"))
+    # Within the window's circle: its square's corners reach 1.4× as far.
+    near = [b for b in find_blobs(hsv, state.spec, x0, y0)
+            if np.hypot(b.x - at[0], b.y - at[1]) <= half]
+    return choose_blob(near, state.area, at, shape=state.spec.takes)
+
+
 def _plausible(c: Centre, guess: tuple[float, float], state: MarkerState) -> bool:
     """A fit from a prediction that found the marker's colour, near the prediction."""
     lo, hi = state.gain_range(GAIN_RANGE)
@@ -111,13 +125,14 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict
                         return None, "partly_covered"
                     state.remember(centre, seen, frame.index)
                     return centre, "ok"
-            half = window(state)
-            patch, x0, y0 = patch_around(frame, pred[0], pred[1], half)
-            hsv = balanced_hsv(patch, hsv_cache.get("gains"))
-            # Within the window's circle: its square's corners reach 1.4× as far.
-            near = [b for b in find_blobs(hsv, state.spec, x0, y0)
-                    if np.hypot(b.x - pred[0], b.y - pred[1]) <= half]
-            blob, status = choose_blob(near, state.area, pred, shape=state.spec.takes)
+            blob, status = _window_blob(frame, state, pred, window(state), hsv_cache)
+            setting_off = state.set_off_prediction(t)
+            if blob is None and setting_off is not None:
+                # A fix refused off a resting marker's place may have been the marker
+                # setting off: it is looked for on that way too (MarkerState.moved_off).
+                blob, _ = _window_blob(frame, state, setting_off,
+                                       3.0 * state.radius + 2.0 * state.stray_step() + 4.0,
+                                       hsv_cache)
     whole_frame = blob is None
     if whole_frame and pred is None and state.spec.near_px is not None \
             and not search_whole_frame(state, pred):
