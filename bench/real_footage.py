@@ -667,6 +667,25 @@ def circle_fit(xy: NDArray) -> tuple[NDArray, float, NDArray]:
     return centre, radius, np.hypot(d[:, 0], d[:, 1]) - radius
 
 
+def green_centroids(video: Path, frames: NDArray, near: NDArray, half: int = 6) -> NDArray:
+    """In each of ``frames`` (indices), the centroid (px) of max(G − max(R, B) − 10, 0)
+    within ``half`` px of ``near`` (n, 2) px: the LED's centre by a method that shares
+    nothing with the tracker's fits (as :func:`red_centroids` for the pendulum)."""
+    where = dict(zip(frames.tolist(), near, strict=True))
+    out = []
+    for frame in open_frames(video, None).frames():
+        if frame.index not in where:
+            continue
+        x, y = where[frame.index]
+        rgb = frame.rgb.astype(float)
+        i0, j0 = max(round(y) - half, 0), max(round(x) - half, 0)
+        patch = rgb[i0:round(y) + half + 1, j0:round(x) + half + 1]
+        w = np.clip(patch[..., 1] - np.maximum(patch[..., 0], patch[..., 2]) - 10.0, 0.0, None)
+        ii, jj = np.mgrid[0:w.shape[0], 0:w.shape[1]]
+        out.append(((w * (jj + j0)).sum() / w.sum(), (w * (ii + i0)).sum() / w.sum()))
+    return np.array(out)
+
+
 def yupi_track(video: Path, python: Path, start: tuple[float, float]) -> pd.DataFrame | None:
     """The peer's track of the LED (``bench/yupi_peer.py`` under ``python``), or None,
     said, where it could not be made."""
@@ -741,6 +760,13 @@ def run_rover(repo: Path, yupi_python: Path | None) -> None:
           f"{np.median(sigma[turn]):.3f} px; aim 50–90 %); lag-1 correlation of the "
           f"residual {np.corrcoef(r[:-1], r[1:])[0, 1]:+.2f} (near +1: the arm's own "
           "wobble or a slow error, not noise)")
+    # A second centre made apart from the tracker: where it leaves the same residual
+    # against the circle, that residual is the arm's (its wobble), not either centre's.
+    other = green_centroids(video, np.flatnonzero(turn), xy[turn])
+    _, _, r2 = circle_fit(other)
+    print(f"  a second centre (the centroid of the LED's greenness, made in this bench) leaves "
+          f"{np.sqrt(np.mean(r2**2)):.3f} px across its own circle; the two residuals "
+          f"correlate {np.corrcoef(r, r2)[0, 1]:+.2f} (what they share is the arm's motion)")
     if yupi_python is not None:
         peer = yupi_track(video, yupi_python, tuple(xy[np.flatnonzero(ok)[0]]))
         if peer is not None:
