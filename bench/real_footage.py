@@ -634,6 +634,8 @@ LIT_DN = 30
 #: The arm has set off in the first frame whose greenest pixel lies this far (px) from
 #: where it lay in the first frame.
 SET_OFF_PX = 3.0
+#: The frame `inspect` is asked about: a second in, the rig at rest.
+INSPECT_FRAME = 30
 
 
 def greenest(video: Path) -> tuple[NDArray, NDArray]:
@@ -741,6 +743,12 @@ def run_rover(repo: Path, yupi_python: Path | None) -> None:
     xy = tab[["led_x_px", "led_y_px"]].to_numpy(float)
     sigma = tab["led_sigma_px"].to_numpy(float)
     pivot = tab[["pivot_x_px", "pivot_y_px"]].to_numpy(float)
+    # What a new user sees first: where `inspect` lists the two, a second in (at rest).
+    ranks = [inspect_rank(video, None, INSPECT_FRAME, (x, y)) for x, y in
+             (xy[INSPECT_FRAME], pivot[INSPECT_FRAME])]
+    print(f"  `inspect` at frame {INSPECT_FRAME} lists the LED "
+          + " and the pivot ".join('not at all' if k is None else f'{k}.' for k, _ in ranks)
+          + f" of {ranks[0][1]} candidates (it prints the first 12)")
     pivot_ok = tab["pivot_ok"].to_numpy(bool)
     rest = np.arange(len(tab)) < off
     print("  at rest, " + at_rest_line("LED", xy[rest & ok], sigma[rest & ok]))
