@@ -14,9 +14,9 @@ that the answer should not change, so it needs no peer and no physics:
 - *jumps*: fixes that moved by more than 3 px (another place on the object, or
   another object).
 
-The clips are those of ``bench/real_footage.py`` (Tracker's examples, and a real
-pendulum) and the objects at rest of ``bench/real_clips.py`` (OpenCV's vtest.avi,
-from its cache). Clips are not committed; give the same paths as to
+The clips are those of ``bench/real_footage.py`` (Tracker's examples, a real
+pendulum and yupi's rover wheel) and the objects at rest of ``bench/real_clips.py``
+(OpenCV's vtest.avi, from its cache). Clips are not committed; give the same paths as to
 ``real_footage.py``, and without them it says so and exits 0:
 
     .venv/bin/python bench/reproducibility.py /path/to/OpenSourcePhysics/tracker \\
@@ -114,11 +114,13 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=3, help="patterns per clip (default 3)")
     args = ap.parse_args()
     vtest = real_clips.CACHE / "opencv-doc" / "vtest.avi"
-    given = [p for p in (args.tracker, args.pendulum) if p is not None and p.exists()]
+    given = [p for p in (args.tracker, args.pendulum, args.rover)
+             if p is not None and p.exists()]
     if not given and not vtest.exists():
         print("usage: bench/reproducibility.py [PATH-TO-OpenSourcePhysics/tracker] "
-              "[--pendulum PATH-TO-juangomez177/Pendulum_Oscillatory_Motion]; no clip "
-              "given and no vtest.avi cached by bench/real_clips.py, nothing measured")
+              "[--pendulum PATH-TO-juangomez177/Pendulum_Oscillatory_Motion] "
+              "[--rover PATH-TO-yupidevs/yupi_examples]; no clip given and no vtest.avi "
+              "cached by bench/real_clips.py, nothing measured")
         return
     compile_kernels()
     if args.tracker is not None and args.tracker.exists():
@@ -132,6 +134,11 @@ def main() -> None:
         video = real_footage._extract(args.pendulum, name, folder="")
         if video is not None:
             run(name, video, None, [marker], args.seeds)
+    if args.rover is not None and args.rover.exists():
+        name, led, pivot = real_footage.ROVER
+        video = real_footage._extract(args.rover, name, folder="resources/videos")
+        if video is not None:
+            run(name, video, None, [led, pivot], args.seeds)
     if vtest.exists():
         run("vtest.avi, objects at rest", vtest, None, list(real_clips.AT_REST), args.seeds)
 
