@@ -171,6 +171,27 @@ def test_a_resting_marker_that_set_off_is_looked_for_on_its_way():
     assert statuses[12] == "rejected", statuses
 
 
+def test_the_fix_refused_as_a_resting_marker_set_off_is_given_back(tmp_path):
+    """Tracked as a clip (PNG pictures at 30 fps), the frame whose fix was refused as
+    off the resting marker's place, and then taken up as the marker setting off, is
+    the marker's in the tracks table: found, where it was drawn."""
+    import cv2
+
+    from cranktrack.tracker.track import track
+    from cranktrack.tracker.video import open_frames
+
+    xs = {}
+    for k in range(20):
+        xs[k] = 60.0 + 8.0 * max(k - 9, 0)
+        discs = {} if k == 10 else {"B": (xs[k], 70.0, 5.5)}
+        cv2.imwrite(str(tmp_path / f"{k:03d}.png"),
+                    cv2.cvtColor(draw(discs, noise_dn=1.0, seed=k), cv2.COLOR_RGB2BGR))
+    tab = track(open_frames(tmp_path, 30.0), (MarkerSpec("B", hue_deg=0),)).tracks
+    ok = tab["B_ok"].astype(bool).to_numpy()
+    assert not ok[10] and ok[11:].all(), tab["B_status"].tolist()
+    assert abs(tab.loc[11, "B_x_px"] - xs[11]) < 0.05
+
+
 def test_a_neighbour_of_a_hidden_marker_at_rest_is_still_refused():
     """While a marker at rest is hidden, a disc of its colour 15 px (2.7 radii) away
     stays where it is: not a marker that moved off, so it is refused frame after

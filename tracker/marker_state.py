@@ -160,8 +160,11 @@ class MarkerState:
     #: Whether each of the last :data:`REST_STEPS` steps between fixes was short.
     short_steps: list[bool] = field(default_factory=list)
     #: The last fix refused as off a resting marker's place since its last fix
-    #: (t s, x px, y px), for :meth:`moved_off`.
-    stray: tuple[float, float, float] | None = None
+    #: (t s, the fit), for :meth:`moved_off`.
+    stray: tuple[float, Centre] | None = None
+    #: A refused fix :meth:`moved_off` has since taken up as the marker setting off
+    #: (t s, the fit): its frame's row is the marker's after all.
+    taken_up: tuple[float, Centre] | None = None
     notes: list[str] = field(default_factory=list)  # things the user should hear about
     #: The nearest blob refused as too far from where the user placed the marker
     #: (x px, y px, distance px), to name if the marker is never found.
@@ -424,12 +427,13 @@ class MarkerState:
         refused by :meth:`off_its_place`? Yes where the fix refused before it (since the
         last fix taken) lies at least :data:`MOVE_STEP` radii back along the way from
         the place (within :data:`MOVE_ALIGN`): the motion is taken up from those two
-        fixes (the refused one enters the history). A neighbour of the marker's colour
-        found in its stead stays put, and is refused frame after frame."""
-        before, self.stray = self.stray, (t, centre.x, centre.y)
+        fixes (the refused one enters the history, and is given back to its frame:
+        :attr:`taken_up`). A neighbour of the marker's colour found in its stead stays
+        put, and is refused frame after frame."""
+        before, self.stray = self.stray, (t, centre)
         if before is None or not self.history or self.radius is None:
             return False
-        t0, x0, y0 = before
+        t0, x0, y0 = before[0], before[1].x, before[1].y
         _, xr, yr = self.history[-1]
         out = (x0 - xr, y0 - yr)  # from its place to the first refused fix
         on = (centre.x - x0, centre.y - y0)  # and on from there
@@ -439,6 +443,7 @@ class MarkerState:
             return False
         self.resting, self.short_steps, self.stray = False, [], None
         self.history, self.missed, self.surprise_px = [(t0, x0, y0)], 0, None
+        self.taken_up = before
         return True
 
     def set_off_prediction(self, t: float) -> tuple[float, float] | None:
@@ -447,7 +452,8 @@ class MarkerState:
         through that fix, at that pace (px). None without such a fix."""
         if self.stray is None or not self.resting or not self.history:
             return None
-        (tr, xr, yr), (t0, x0, y0) = self.history[-1], self.stray
+        (tr, xr, yr), (t0, c0) = self.history[-1], self.stray
+        x0, y0 = c0.x, c0.y
         if t0 <= tr:
             return None
         k = (t - t0) / (t0 - tr)
@@ -457,7 +463,8 @@ class MarkerState:
         """How far the fix last refused off the marker's place lies from it, px."""
         if self.stray is None or not self.history:
             return 0.0
-        return math.hypot(self.stray[1] - self.history[-1][1], self.stray[2] - self.history[-1][2])
+        return math.hypot(self.stray[1].x - self.history[-1][1],
+                          self.stray[1].y - self.history[-1][2])
 
     def motion_px(self) -> float:
         """How far the marker may be from its prediction for its motion, px: the last

@@ -509,6 +509,9 @@ def _locate_markers(frame: Frame, state: TrackerState) -> list:
         else:
             if st.false_start is not None:
                 _judge_false_start(state.rows, k, st, centre.radius)
+            if st.taken_up is not None:
+                _give_back(state.rows, k, *st.taken_up)
+                st.taken_up = None
             st.found_at(frame.t_s, centre.x, centre.y, predicted)
             values += [centre.x, centre.y, centre.sigma, True, status]
             found.append((st, centre))
@@ -527,6 +530,16 @@ def _judge_false_start(rows: list[list], k: int, st: MarkerState, radius: float)
             if int(row[0]) in wrong:
                 row[2 + 5 * k:7 + 5 * k] = [np.nan, np.nan, np.nan, False, "rejected"]
     st.false_start = None
+
+
+def _give_back(rows: list[list], k: int, t: float, centre: Centre) -> None:
+    """Marker ``k``'s fix ``centre``, refused at time ``t`` (s) as off its place and
+    since taken up as the marker setting off (:meth:`.MarkerState.moved_off`), written
+    into that frame's row."""
+    for row in reversed(rows):
+        if row[1] == t:
+            row[2 + 5 * k:7 + 5 * k] = [centre.x, centre.y, centre.sigma, True, "ok"]
+            return
 
 
 def _one_blob_each(found: list[tuple[MarkerState, Centre]], markers: list[MarkerState],
