@@ -230,6 +230,7 @@ def _track_command(sub: argparse._SubParsersAction) -> None:
                         "degrees, #RRGGBB, or white/black/grey (found by contrast); @X,Y says "
                         "where it is at first (px). Repeat per marker. Naming only A, B or "
                         "C recolours them; naming any other tracks exactly the named ones. "
+                        "C=none: no slider marker, θ is A→B's angle from the x axis. "
                         "Defaults: A=green B=red C=blue")
     p.add_argument("--calibration", metavar="PLANE.json",
                    help="plane calibration from `cranktrack calibrate plane`; with it, "

@@ -436,24 +436,33 @@ def _measure_into(folder: Path, tracks: pd.DataFrame, hues: dict[str, float | No
             f"marker {never[0]}{'' if hue is None else f' (hue {hue:g}°)'} was not found in "
             f"any frame, so there are no kinematics; {folder / TRACKS} has what was found; "
             "check the marker's colour (--marker NAME=COLOUR)", problems)
+    # The plane's x axis runs from A to C; a run without C keeps the image's x direction.
+    axis_to = "C" if "C" in names else None
     if calibration is not None:
-        cal = calibration if aligned else align_to_markers(calibration, tracks)
+        cal = calibration if aligned else align_to_markers(calibration, tracks,
+                                                           axis_to=axis_to)
         if known_length is not None:
             cal = check_length(cal, tracks, *known_length)
     else:
         a, b, length = known_length
-        cal = calibrate_known_length(tracks, a, b, length, size)
+        cal = calibrate_known_length(tracks, a, b, length, size, axis_to=axis_to)
     warnings = list(cal.warnings)
     files = {"calibration": save_calibration(folder / CALIBRATION, cal)}
     tracks = add_plane_coordinates(tracks, cal, names)
     files["tracks"] = write_csv_atomic(folder / TRACKS, tracks)
-    if not {"A", "B", "C"} <= set(names):
-        raise CranktrackError("kinematics need markers A, B and C; the run tracked only "
-                              + ", ".join(names))
+    if not {"A", "B"} <= set(names):
+        raise CranktrackError("kinematics need markers A and B (and C, or --marker C=none); "
+                              "the run tracked only " + ", ".join(names))
     on_stage("kinematics")
     timed = tracks if not readout_s else at_frame_times(tracks, readout_s, size[1], names)
     kinematics, info = measure_kinematics(timed, window_s=window_s, scale_sigma=cal.scale_sigma)
     warnings += _link_warnings(info.links)
+    if info.theta_from != "A-C":
+        warnings.append(
+            "no marker C (--marker C=none): θ is the angle of A→B from the plane's x axis "
+            "(the image's x direction, toward its y axis turned up), not the crank-slider's "
+            f"angle at A between A→C and A→B; L1 and L3 are empty in {KINEMATICS}, and "
+            "`compare` and `fit` need C")
     if info.repeated_frames:
         warnings.append(
             f"{info.repeated_frames} frames repeat the picture before them (a marker all but "
@@ -616,6 +625,17 @@ def camera_view(run: Path, tracks: pd.DataFrame | None = None,
     return CameraView(cal.plane_points, cal.image_points, size, A, C, side)
 
 
+def _needs_c(run: Path, info: dict | None, command: str) -> None:
+    """Refuse ``command`` on a run measured without marker C: the models' θ is the
+    angle at A between A→C and A→B, and that run's θ is A→B's from the x axis."""
+    theta_from = ((info or {}).get("kinematics") or {}).get("theta_from", "A-C")
+    if theta_from != "A-C":
+        raise CranktrackError(
+            f"the run in {run} was tracked without marker C (--marker C=none), so its θ is "
+            f"measured from the plane's x axis, not from A→C as the models' is; `{command}` "
+            "needs C tracked")
+
+
 def fit_run(run: Path, model: str, known: dict[str, float],
             on_fit: Callable[[tuple[str, ...]], None] | None = None
             ) -> tuple[LoopResult, list[Path]]:
@@ -638,6 +658,7 @@ def fit_run(run: Path, model: str, known: dict[str, float],
     except (OSError, ValueError):
         tracks = None
     info = folder.read_json(RUN_INFO)
+    _needs_c(folder.path, info, "fit")
     view = camera_view(folder.path, tracks, info) if tracks is not None and info else None
     result = close_loop(measured, known, model, context=_image_context(measured, tracks, info),
                         view=view, on_fit=on_fit)
@@ -672,6 +693,7 @@ def compare_run(run: Path, known: dict[str, float],
     from .report.plots import plot_comparison
     from .report.summary import write_report
 
+    _needs_c(Path(run), run_folder(run).read_json(RUN_INFO), "compare")
     measured = read_kinematics(run)
     result = compare_spool(measured, known)
     report = {**result.fit.to_dict(), "errors": result.summary.to_dict(orient="records")}

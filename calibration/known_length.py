@@ -57,20 +57,20 @@ def calibrate_known_length(
     length_mm: float,
     image_size: tuple[int, int],
     origin: str = "A",
-    axis_to: str = "C",
+    axis_to: str | None = "C",
 ) -> PlaneCalibration:
     """Scale from the known distance between markers ``a`` and ``b``.
 
     Uses every frame where both are found; the scale comes from the median
     pixel distance. The plane frame has ``origin`` at (0, 0) and ``axis_to``
-    on +x.
+    on +x (None: +x along the image's x, +y up).
 
     Raises
     ------
     CranktrackError
         A named marker is not in the table or never found together with the other.
     """
-    for name in {a, b, origin, axis_to}:
+    for name in {a, b, origin, axis_to} - {None}:
         if f"{name}_ok" not in tracks:
             raise CranktrackError(f"marker {name} is not tracked, so it cannot be used for "
                                   "calibration")
@@ -88,8 +88,11 @@ def calibrate_known_length(
     d_mm = d_px * mm_per_px
     spread = float(np.std(d_mm))
     o = _median_point(tracks, origin)
-    c = _median_point(tracks, axis_to)
-    axis = float(np.degrees(np.arctan2(-(c[1] - o[1]), c[0] - o[0])))
+    if axis_to is None:
+        axis = 0.0
+    else:
+        c = _median_point(tracks, axis_to)
+        axis = float(np.degrees(np.arctan2(-(c[1] - o[1]), c[0] - o[0])))
     # The scale's error is that of the two markers' positions, and on compressed
     # video most of a position's error persists from frame to frame (a bias), so
     # the median over frames does not average it away: no 1/√n.

@@ -194,15 +194,16 @@ def points_plane(image_px: NDArray, plane_mm: NDArray, image_size: tuple[int, in
 
 
 def align_to_markers(cal: PlaneCalibration, tracks: pd.DataFrame, origin: str = "A",
-                     axis_to: str = "C") -> PlaneCalibration:
-    """Move the plane frame so ``origin`` is at (0, 0) and ``axis_to`` on +x.
+                     axis_to: str | None = "C") -> PlaneCalibration:
+    """Move the plane frame so ``origin`` is at (0, 0) and ``axis_to`` on +x (None:
+    +x where the image's x direction at ``origin`` maps to).
 
     Uses the median plane positions over the run. The new y axis is 90°
     counter-clockwise from x *as the camera sees it*, whatever the
     handedness of the board's own frame.
     """
     pts = {}
-    for m in (origin, axis_to):
+    for m in (origin,) if axis_to is None else (origin, axis_to):
         ok = tracks[f"{m}_ok"].to_numpy(bool)
         if not ok.any():
             raise CranktrackError(f"marker {m} is never found, so the plane frame (A at the "
@@ -210,7 +211,14 @@ def align_to_markers(cal: PlaneCalibration, tracks: pd.DataFrame, origin: str = 
         x, y = cal.to_plane(tracks.loc[ok, f"{m}_x_px"].to_numpy(),
                             tracks.loc[ok, f"{m}_y_px"].to_numpy())
         pts[m] = np.array([np.median(x), np.median(y)])
-    ex = pts[axis_to] - pts[origin]
+    if axis_to is None:
+        ok = tracks[f"{origin}_ok"].to_numpy(bool)
+        o_px = np.array([np.median(tracks.loc[ok, f"{origin}_x_px"]),
+                         np.median(tracks.loc[ok, f"{origin}_y_px"])])
+        x, y = cal.to_plane(np.array([o_px[0], o_px[0] + 1.0]), np.array([o_px[1]] * 2))
+        ex = np.array([x[1] - x[0], y[1] - y[0]])
+    else:
+        ex = pts[axis_to] - pts[origin]
     if not np.hypot(*ex) > 0:
         raise CranktrackError(f"markers {origin} and {axis_to} coincide in the plane")
     ex = ex / np.hypot(*ex)

@@ -58,8 +58,12 @@ def window_samples(t_s: np.ndarray, window_s: float, order: int) -> int:
 def crank_angle(tracks: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     """θ (rad, unwrapped, positive on the assembly the run starts in) and its 1-σ.
 
-    Frames where any of A, B, C is missing are NaN.
+    Frames where any of A, B, C is missing are NaN. Tracks without C (``--marker
+    C=none``) give the angle of A→B from the plane's +x axis toward +y instead
+    (:func:`arm_angle`).
     """
+    if "C_x_mm" not in tracks:
+        return arm_angle(tracks)
     A, B, C = _xy(tracks, "A"), _xy(tracks, "B"), _xy(tracks, "C")
     ab, ac = B - A, C - A
     cross = ac[:, 0] * ab[:, 1] - ac[:, 1] * ab[:, 0]
@@ -81,6 +85,22 @@ def crank_angle(tracks: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     s = {m: tracks[f"{m}_sigma_mm"].to_numpy(float) for m in "ABC"}
     var = sum((g**2).sum(axis=1) * s[m] ** 2 for g, m in ((gA, "A"), (gB, "B"), (gC, "C")))
     return theta, np.sqrt(var)
+
+
+def arm_angle(tracks: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """The angle (rad, unwrapped) of A→B from the plane's +x axis toward its +y axis,
+    and its 1-σ: θ of a crank or arm tracked without C. NaN where A or B is missing."""
+    A, B = _xy(tracks, "A"), _xy(tracks, "B")
+    ab = B - A
+    theta = np.arctan2(ab[:, 1], ab[:, 0])
+    ok = np.isfinite(theta)
+    if not ok.any():
+        raise CranktrackError("markers A and B are never found in the same frame, so the "
+                              "crank angle cannot be measured")
+    theta[ok] = np.unwrap(theta[ok])
+    # Moving B (or A the other way) across A→B turns it by 1/|AB| per unit.
+    s = np.hypot(tracks["A_sigma_mm"].to_numpy(float), tracks["B_sigma_mm"].to_numpy(float))
+    return theta, s / np.hypot(ab[:, 0], ab[:, 1])
 
 
 #: Samples in the running window of the noise scale: about a second at 30 fps.
@@ -136,6 +156,8 @@ def _rigid_links(tracks: pd.DataFrame) -> dict[str, _Link]:
     sA = tracks["A_sigma_mm"].to_numpy(float)
     out = {}
     for name, m in (("L1_mm", "C"), ("L2_mm", "B")):
+        if f"{m}_x_mm" not in tracks:
+            continue  # no C: no |AC|
         length = np.hypot(*(_xy(tracks, m) - A).T)
         sigma = np.hypot(sA, tracks[f"{m}_sigma_mm"].to_numpy(float))
         dev = length - np.nanmedian(length)
@@ -191,6 +213,9 @@ def _excess(links: dict[str, _Link]) -> dict[str, np.ndarray]:
         with np.errstate(invalid="ignore"):
             seen = level > LINK_SIGNIFICANCE * expected
         excess[name] = np.where(seen, level - expected, 0.0)
+    if "L1_mm" not in excess:
+        # Without C, |AB| alone: its excess cannot be shared out, and goes to B.
+        return {"A": np.zeros_like(excess["L2_mm"]), "B": excess["L2_mm"]}
     # L2 is |AB|, L1 is |AC|.
     shared = np.minimum(excess["L2_mm"], excess["L1_mm"])
     return {"A": shared, "B": excess["L2_mm"] - shared, "C": excess["L1_mm"] - shared}
@@ -212,13 +237,17 @@ class MeasureInfo:
     #: Frames left out because their picture repeats the one before
     #: (:func:`repeated_rows`).
     repeated_frames: int = 0
+    #: What θ is measured from: ``"A-C"`` (the crank-slider's angle at A) or
+    #: ``"x axis"`` (tracks without C, :func:`arm_angle`).
+    theta_from: str = "A-C"
 
     def to_dict(self) -> dict:
         return {"window_samples": self.window, "window_s": self.window_s,
                 "sigma_scale": self.sigma_scale,
                 "sigma_scale_range": list(self.sigma_scale_range),
                 "window_scores": {str(k): v for k, v in self.window_scores.items()},
-                "links": self.links, "repeated_frames": self.repeated_frames}
+                "links": self.links, "repeated_frames": self.repeated_frames,
+                "theta_from": self.theta_from}
 
 
 def _travel_sigma(dBx: Derivatives, dBy: Derivatives) -> tuple[np.ndarray, np.ndarray]:
@@ -272,7 +301,9 @@ def measure_kinematics(
     Parameters
     ----------
     tracks : DataFrame
-        Tracks with ``t_s`` and ``A|B|C`` ``_x_mm``, ``_y_mm``, ``_sigma_mm``.
+        Tracks with ``t_s`` and ``A|B|C`` ``_x_mm``, ``_y_mm``, ``_sigma_mm``. Without
+        C's columns θ is A→B's angle from the plane's x axis (:func:`arm_angle`), and
+        ``L1_mm``, ``L3_mm`` and ``L3_rate_mm_s`` are NaN.
     window_s : float, optional
         Length of the differentiator's window, s; ``None`` chooses it from
         the data (leave-one-out cross-validation on θ).
@@ -296,7 +327,7 @@ def measure_kinematics(
         ``rigid_ok`` and ``theta_deg_sigma_tracker``, θ's σ from the
         tracker's σ alone), one row per frame, and how it was made.
     """
-    for m in "ABC":
+    for m in "AB" if "C_x_px" not in tracks else "ABC":
         if f"{m}_x_mm" not in tracks:
             raise CranktrackError(f"the tracks have no plane coordinates for marker {m}; "
                                   "calibrate first")
@@ -332,11 +363,17 @@ def measure_kinematics(
         return replace(d, d1_sigma=s1, d2_sigma=s2)
 
     d_theta = diff(theta, theta_sigma, fit_theta)
-    B, C = _xy(tracks, "B"), _xy(tracks, "C")
-    sB, sC = (tracks[f"{m}_sigma_mm"].to_numpy(float) for m in "BC")
+    has_c = "C_x_mm" in tracks
+    B = _xy(tracks, "B")
+    sB = tracks["B_sigma_mm"].to_numpy(float)
     dBx, dBy = diff(B[:, 0], sB), diff(B[:, 1], sB)
-    L3 = np.hypot(*(B - C).T)
-    dL3 = diff(L3, np.hypot(sB, sC))
+    if has_c:
+        C, sC = _xy(tracks, "C"), tracks["C_sigma_mm"].to_numpy(float)
+        L3 = np.hypot(*(B - C).T)
+        dL3 = diff(L3, np.hypot(sB, sC))
+        L3_rate, L3_rate_sigma = dL3.d1, dL3.d1_sigma
+    else:
+        L3 = L3_rate = L3_rate_sigma = np.full(len(t), np.nan)
     vx, vy = dBx.d1, dBy.d1
     speed = np.hypot(vx, vy)
     along, across = _travel_sigma(dBx, dBy)
@@ -346,7 +383,8 @@ def measure_kinematics(
     wide = tracks.copy()
     for m, ex in _excess(rigid).items():
         wide[f"{m}_sigma_mm"] = np.sqrt(wide[f"{m}_sigma_mm"].to_numpy(float) ** 2 + ex)
-    L3_sigma = np.hypot(wide["B_sigma_mm"].to_numpy(float), wide["C_sigma_mm"].to_numpy(float))
+    L3_sigma = (np.hypot(wide["B_sigma_mm"].to_numpy(float), wide["C_sigma_mm"].to_numpy(float))
+                if has_c else np.full(len(t), np.nan))
     sigma = {
         "theta_deg": np.degrees(crank_angle(wide)[1]),
         "omega_rad_s": d_theta.d1_sigma,
@@ -356,21 +394,23 @@ def measure_kinematics(
         "vB_mm_s": along,
         "vB_dir_deg": np.degrees(across),
         "L3_mm": L3_sigma,
-        "L3_rate_mm_s": dL3.d1_sigma,
+        "L3_rate_mm_s": L3_rate_sigma,
     }
     # The calibration's scale error is shared by every frame's lengths and speeds.
     for col, value in (("vB_x_mm_s", vx), ("vB_y_mm_s", vy), ("vB_mm_s", speed),
-                       ("L3_mm", L3), ("L3_rate_mm_s", dL3.d1)):
+                       ("L3_mm", L3), ("L3_rate_mm_s", L3_rate)):
         sigma[col] = np.hypot(sigma[col], np.abs(value) * scale_sigma)
     table = kinematics_table(t, theta, d_theta.d1, d_theta.d2, np.stack([vx, vy], axis=1), L3,
-                             dL3.d1, sigma=sigma, frame=tracks["frame"].to_numpy())
+                             L3_rate, sigma=sigma, frame=tracks["frame"].to_numpy())
     # A direction of travel is only measured while B measurably moves.
     still_B = ~(speed > 2.0 * sigma["vB_mm_s"])
     table.loc[still_B, ["vB_dir_deg", "vB_dir_deg_sigma"]] = np.nan
     rigid_ok = np.isfinite(theta)
-    for name, link in rigid.items():
-        table[name] = link.length
-        rigid_ok &= ~link.jump
+    for name in ("L1_mm", "L2_mm"):
+        link = rigid.get(name)
+        table[name] = np.nan if link is None else link.length
+        if link is not None:
+            rigid_ok &= ~link.jump
     table["rigid_ok"] = rigid_ok
     links = {name: _link_summary(link) for name, link in rigid.items()}
     # The noise level a model's residual is judged against (``cranktrack fit``): the
@@ -379,4 +419,5 @@ def measure_kinematics(
     table["theta_deg_sigma_tracker"] = np.degrees(theta_sigma)
     step = float(np.median(np.diff(t))) if t.size > 1 else float("nan")
     return table, MeasureInfo(w, w * step, float(np.median(scale)), scores, links,
-                              (float(np.min(scale)), float(np.max(scale))))
+                              (float(np.min(scale)), float(np.max(scale))),
+                              theta_from="A-C" if has_c else "x axis")

@@ -3,6 +3,7 @@
 import subprocess
 import sys
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -296,3 +297,22 @@ def test_calibrate_readout_from_two_markers_on_a_bar_shaken_sideways(tmp_path, c
                  "--marker", "top"]) == 1
     assert "not 3 times" in capsys.readouterr().err
 
+
+
+def test_a_crank_tracked_without_c_has_its_angle_from_the_x_axis(small_h264, tmp_path, capsys):
+    """`--marker C=none`: A and B alone, scaled by |AB| (72.4 mm on the render). θ is
+    A→B's angle from the image's x direction (y turned up), against the render's own
+    A and B; `compare` and `fit` refuse the run in one sentence."""
+    run = tmp_path / "arm"
+    assert main(["track", str(small_h264.video), "--out", str(run), "--marker", "C=none",
+                 "--known-length", "A-B=72.4"]) == 0
+    assert "no marker C" in capsys.readouterr().err
+    k = pd.read_csv(run / "kinematics.csv")
+    truth = pd.read_csv(small_h264.truth)
+    drawn = np.degrees(np.arctan2(-(truth["B_y_px"] - truth["A_y_px"]),
+                                  truth["B_x_px"] - truth["A_x_px"]))
+    err = (k["theta_deg"] - drawn).to_numpy()
+    assert np.isfinite(err).sum() > 50 and np.sqrt(np.nanmean(err**2)) < 0.1
+    assert "C_x_px" not in pd.read_csv(run / "tracks.csv")
+    _one_sentence_error(_run("compare", str(run)), "without marker C", "compare")
+    _one_sentence_error(_run("fit", str(run), "--known", "L1_mm=160.8"), "without marker C")

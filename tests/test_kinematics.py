@@ -393,3 +393,30 @@ def test_a_rolling_shutter_is_taken_back_to_the_frames_time():
     # 0.02 mm of noise on a 50 mm crank alone is 0.02–0.03° of θ.
     assert as_seen[0] > 0.5 and taken_back[0] < 0.05, (as_seen, taken_back)
     assert taken_back[1] < 0.2 * as_seen[1], (as_seen, taken_back)
+
+
+def test_an_arm_without_c_turns_at_its_drawn_rate_from_the_x_axis():
+    """A pivot and a crank tip only (``--marker C=none``): B drawn turning about A at a
+    constant 2 rad/s, 40 mm out, tracks as numbers with 0.02 mm of noise (the truth:
+    constant rotation). θ is A→B's angle from the plane's x axis, its rate the drawn
+    one; the lengths that need C are empty."""
+    rng = np.random.default_rng(5)
+    n, fps, omega = 120, 30.0, 2.0
+    t = np.arange(n) / fps
+    angle = 0.3 + omega * t  # more than a turn: θ is unwrapped
+    pts = {"A": np.zeros((n, 2)), "B": 40.0 * np.c_[np.cos(angle), np.sin(angle)]}
+    table = {"frame": np.arange(n), "t_s": t}
+    for m, xy in pts.items():
+        mm = xy + rng.normal(0.0, 0.02, xy.shape)
+        table |= {f"{m}_x_px": 4.0 * mm[:, 0], f"{m}_y_px": -4.0 * mm[:, 1],
+                  f"{m}_ok": np.ones(n, dtype=bool), f"{m}_x_mm": mm[:, 0],
+                  f"{m}_y_mm": mm[:, 1], f"{m}_sigma_mm": np.full(n, 0.02)}
+    k, info = measure_kinematics(pd.DataFrame(table), window_s=0.2)
+    assert info.theta_from == "x axis" and info.to_dict()["theta_from"] == "x axis"
+    assert np.sqrt(np.mean((np.radians(k["theta_deg"]) - angle) ** 2)) < np.radians(0.05)
+    middle = (t > 0.3) & (t < t[-1] - 0.3)
+    assert np.sqrt(np.mean((k["omega_rad_s"][middle] - omega) ** 2)) < 0.01
+    assert np.nanmedian(k["L2_mm"]) == pytest.approx(40.0, abs=0.02)
+    assert k[["L1_mm", "L3_mm", "L3_rate_mm_s"]].isna().all().all()
+    # The σ of θ is the noise across A→B over its length, not zero and not wild.
+    assert 0.5 < np.median(np.radians(k["theta_deg_sigma"])) / (0.02 * np.sqrt(2) / 40) < 3

@@ -124,6 +124,16 @@ def test_markers_are_named_with_finite_places_and_hues_in_range(items):
             assert s.near_px is None or all(math.isfinite(v) for v in s.near_px)
 
 
+def test_c_none_leaves_the_crank_slider_without_its_slider_marker():
+    assert [s.name for s in parse_markers(["C=none"])] == ["A", "B"]
+    specs = parse_markers(["A=red@305,245", "B=120@423,111", "C=none"])
+    assert [s.name for s in specs] == ["A", "B"] and all(s.flat for s in specs)
+    for items, words in ((["B=none"], "only C"), (["C=none", "C=blue"], "both"),
+                         (["C=none", "ball=white"], "crank-slider")):
+        with pytest.raises(CranktrackError, match=words):
+            parse_markers(items)
+
+
 @given(name=names, hue=st.floats(0, 359.9), x=st.integers(0, 4000), y=st.integers(0, 4000))
 def test_a_marker_by_hue_and_place_comes_back(name, hue, x, y):
     (spec,) = [s for s in parse_markers([f"{name}={hue!r}@{x},{y}"]) if s.name == name]

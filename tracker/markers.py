@@ -187,15 +187,24 @@ def parse_markers(items: list[str]) -> tuple[MarkerSpec, ...]:
 
     Naming only the crank-slider's A, B or C changes their colours and keeps the
     others at their defaults; naming any other marker tracks exactly the named
-    ones, so a ball or a cart is not searched for A, B and C as well.
+    ones, so a ball or a cart is not searched for A, B and C as well. ``C=none``
+    says the slider carries no marker: A and B are tracked alone (a crank on its
+    pivot, an arm that turns), and θ is then measured from the plane's x axis.
     """
     given: dict[str, MarkerSpec] = {}
+    without: set[str] = set()
     for item in items:
         name, sep, colour = item.partition("=")
         name = name.strip()
         if not sep or not name:
             raise CranktrackError(f"--marker {item!r} is not NAME=COLOUR, e.g. B=red or "
                                   "ball=white@131,208")
+        if colour.strip().lower() == "none":
+            if name != "C":
+                raise CranktrackError(f"--marker {item!r}: only C, the slider's marker, may be "
+                                      "none; the kinematics need the pivot A and the crank's B")
+            without.add(name)
+            continue
         colour, at, where = colour.partition("@")
         spec = MarkerSpec.from_colour(name, colour)
         if at:
@@ -211,10 +220,15 @@ def parse_markers(items: list[str]) -> tuple[MarkerSpec, ...]:
             raise CranktrackError(f"marker {name} is given twice")
         given[name] = spec
     defaults = {s.name for s in DEFAULT_MARKERS}
-    if given and set(given) <= defaults:
-        # Recoloured, still the crank-slider's flat discs.
+    if without and "C" in given:
+        raise CranktrackError("marker C is given both a colour and none")
+    if without and not set(given) <= defaults:
+        raise CranktrackError("C=none is for the crank-slider's markers; with markers of "
+                              "other names only the named ones are tracked anyway")
+    if (given or without) and set(given) <= defaults:
+        # Recoloured, still the crank-slider's flat discs (less any said to be none).
         return tuple(replace(given[s.name], flat=True) if s.name in given else s
-                     for s in DEFAULT_MARKERS)
+                     for s in DEFAULT_MARKERS if s.name not in without)
     return tuple(given.values()) or DEFAULT_MARKERS
 
 
