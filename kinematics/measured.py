@@ -2,7 +2,8 @@
 
 θ is the internal angle at A between A→C and A→B, computed per frame from
 the three tracked points (so a pivot that moves does not bias it) and
-unwrapped; ω, α, v_B and L3' come from :mod:`.differentiate` on the real
+unwrapped (tracked without C, ``--marker C=none``: A→B's angle from the plane's
+x axis, :func:`arm_angle`); ω, α, v_B and L3' come from :mod:`.differentiate` on the real
 frame times, with non-oscillatory windows (no smearing across the instants
 a drive starts or stops) whose length is chosen from the data by
 leave-one-out cross-validation on θ.

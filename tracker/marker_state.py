@@ -78,12 +78,12 @@ REST_STEPS = 3
 #: (3.5 radii) apart whenever a fit failed: about half its frames on each.
 REST_REACH = 1.5
 REST_MEMORY = 64
-#: ...unless it has moved off: fixes refused so in two frames in a row that step apart
-#: by at least this many radii, the second farther from its place, are a marker that
-#: has started to move (:meth:`MarkerState.moved_off`); a neighbour of its colour
-#: stays where it is. On yupi's rover-wheel clip (Viera2017.mp4) a green LED at rest
-#: for 163 frames set off at 4–6 px a frame (1.3–2 radii), its first fit on the move
-#: failed, and every later fix was refused as off its place: lost for good.
+#: ...unless it has moved off: two fixes refused so since its last fix taken, the
+#: second at least this many radii on from the first, are a marker that has started to
+#: move (:meth:`MarkerState.moved_off`); a neighbour of its colour stays where it is.
+#: On yupi's rover-wheel clip (Viera2017.mp4) a green LED at rest for 163 frames set
+#: off at 4–6 px a frame (1.3–2 radii), its first fit on the move failed, and every
+#: later fix was refused as off its place: lost for good.
 MOVE_STEP = 0.5
 #: ...and the step on from the first refused fix keeps within 45° of the way from the
 #: place to it (the cosine): a marker sets off along a path. On box.mp4 (no markers),
