@@ -28,6 +28,7 @@ import argparse
 import itertools
 import subprocess
 import sys
+import tempfile
 import time
 import xml.etree.ElementTree as ET
 import zipfile
@@ -44,6 +45,7 @@ from common import CACHE
 from pendulum import G, plane_swing, sphere_swing
 
 from cranktrack.calibration.readout import readout_from_flight, tilted_plane_residual
+from cranktrack.pipeline import track_run
 from cranktrack.tracker.markers import parse_markers
 from cranktrack.tracker.survey import frame_and_later, survey
 from cranktrack.tracker.track import track
@@ -714,6 +716,50 @@ def at_rest_line(name: str, xy: NDArray, sigma: NDArray) -> str:
             f"{100 * np.mean(np.abs(d) <= sigma[:, None]):.0f} % (aim 50–90 %)")
 
 
+#: The arm's crank length for `--known-length A-B=` (mm): a guess, which sets the mm of
+#: the rover's run but not its angles or their rates.
+ARM_MM = 66.0
+
+
+def arm_rate(video: Path, theirs: pd.DataFrame, pivot: NDArray, off: int, last: int) -> None:
+    """The product's own kinematics of the arm (``--marker C=none``, a 0.2 s window: the
+    one leave-one-out picks is set by the 5 s at rest) against yupi's: the mean rate
+    over the move, from the first to the last frame both found, of our θ and of the
+    angle of yupi's LED about our pivot's fix at rest, and about our pivot's fix in those
+    two frames (our θ's own centre)."""
+    _, led, pivot_marker = ROVER
+    specs = parse_markers(["A=" + pivot_marker.split("=", 1)[1], "B=" + led.split("=", 1)[1],
+                           "C=none"])
+    with tempfile.TemporaryDirectory() as tmp:
+        run = track_run(video, tmp, ("A", "B", ARM_MM), specs=specs, window_s=0.2)
+    kin = run.kinematics
+    pivots = run.tracks.set_index("frame")[["A_x_px", "A_y_px"]]
+    theta = kin.set_index("frame")["theta_deg"]
+    frames = [k for k in theirs.index if off <= k <= last and np.isfinite(theta.get(k, np.nan))]
+    if len(frames) < 2:
+        print("  the arm's rate: too few frames found by both")
+        return
+    a, b = frames[0], frames[-1]
+    dt = float(kin.set_index("frame").loc[b, "t_s"] - kin.set_index("frame").loc[a, "t_s"])
+    ours = np.radians(theta[b] - theta[a]) / dt
+    led_px = theirs.loc[[a, b]].to_numpy(float)
+
+    def swept(centres: NDArray) -> float:
+        d = led_px - centres
+        turn = np.unwrap(np.arctan2(-d[:, 1], d[:, 0]))  # image y down, the plane's y up
+        return float(turn[1] - turn[0]) / dt
+
+    peer = swept(np.tile(pivot, (2, 1)))
+    moving = swept(pivots.loc[[a, b]].to_numpy(float))
+    omega = kin.set_index("frame").loc[a:b, "omega_rad_s"]
+    print(f"  the arm's rate over the move (frames {a}–{b}): {ours:.4f} rad/s from our θ "
+          f"(`--marker A=… B=… C=none`), {peer:.4f} from yupi's LED about our pivot's fix "
+          f"at rest ({100 * (ours / peer - 1):+.1f} %), {moving:.4f} about our pivot's fix in "
+          f"those two frames ({100 * (ours / moving - 1):+.1f} %); our ω there "
+          f"{np.nanmin(omega):.3f}–"
+          f"{np.nanmax(omega):.3f} rad/s in the {int(np.isfinite(omega).sum())} frames it has")
+
+
 def run_rover(repo: Path, yupi_python: Path | None) -> None:
     """Track the LED and the pivot, check rest and the circle, compare with yupi."""
     name, led_marker, pivot_marker = ROVER
@@ -790,6 +836,7 @@ def run_rover(repo: Path, yupi_python: Path | None) -> None:
                   f"({offset[0]:+.2f}, {offset[1]:+.2f}) px, RMS after removing it {rms:.2f} px "
                   f"(aim ≤ 1 px); its own circle over the move leaves "
                   f"{np.sqrt(np.mean(r_peer**2)):.3f} px across it")
+            arm_rate(video, theirs, np.median(pivot[rest & pivot_ok], axis=0), off, last)
     else:
         print("  no --yupi-python given: yupi's own track not made")
     print(f"  time: tracking {track_s:.2f} s, decoding alone {decode_s:.2f} s "
