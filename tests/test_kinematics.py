@@ -112,6 +112,24 @@ def test_window_length_follows_the_noise():
     assert scores[w_noisy] == min(scores.values())
 
 
+def test_the_window_is_chosen_where_the_motion_is_not_only_at_rest():
+    """Five seconds at rest, then a quick turn seen with gaps (a marker missed every few
+    frames, as on yupi's rover clip). A window longer than the runs between the gaps
+    has no residual on the turn, and scored on the rest alone it won (9 samples here,
+    31 on the rover): the turn's rates were empty. The truth is the drawn turn:
+    θ = 0.3·(t − 5 s)² rad."""
+    t = np.arange(200) / 30.0
+    theta = np.where(t > 5.0, 0.3 * (t - 5.0) ** 2, 0.0)
+    noisy = theta + np.random.default_rng(2).normal(0, 2e-4, t.size)
+    noisy[[158, 166, 171, 177, 184, 190, 196]] = np.nan  # runs of 4–7 frames on the turn
+    w, scores = choose_window(t, noisy, 2e-4)
+    assert w <= 7 and max(scores) <= 9, scores
+    d = local_polynomial(t, noisy, 2e-4, w, 2, adaptive=True)
+    turn = (t > 5.3) & np.isfinite(noisy)
+    assert np.isfinite(d.d1[turn]).mean() > 0.7
+    assert np.nanmax(np.abs(d.d1[turn] - 0.6 * (t[turn] - 5.0))) < 0.05
+
+
 def test_rate_sigma_is_calibrated_when_the_tracker_sigma_is_wrong(run640):
     # Claim the tracker σ is 5× too large: θ's σ follows the claim, but the rates'
     # σ are calibrated from the data's own residuals and barely move.
