@@ -20,6 +20,14 @@ animation that loops (jmoljana, a Jmol vibration), the physics is the loop: a
 frame and the one a period later (the period taken from the peer's clicks)
 must agree, which gives each track's own scatter and our σ's coverage. Without the path
 it says so and exits 0.
+
+``--pendulum`` adds a student's pendulum clip (the swing and the string's length), and
+``--rover`` yupi's rover-wheel clip (a green LED on an arm turning about a red pivot:
+rest, then a circle, a greenness centroid made here, and with ``--yupi-python`` yupi's
+own colour tracker as the peer; :func:`run_rover`):
+
+    .venv/bin/python bench/real_footage.py --rover /path/to/yupidevs/yupi_examples \
+        --yupi-python /path/to/a/venv/with/yupi/bin/python
 """
 
 from __future__ import annotations

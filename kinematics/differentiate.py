@@ -248,5 +248,6 @@ def choose_window(
     most = max(int(np.isfinite(r).sum()) for r in residuals.values())
     kept = {w: r for w, r in residuals.items() if np.isfinite(r).sum() >= WINDOW_COVERAGE * most}
     common = np.logical_and.reduce([np.isfinite(r) for r in kept.values()])
-    scores = {w: float(np.mean(r[common] ** 2)) for w, r in kept.items()}
+    scores = {w: float(np.mean((r[common] if common.any() else r[np.isfinite(r)]) ** 2))
+              for w, r in kept.items()}
     return min(scores, key=scores.get), scores
