@@ -561,11 +561,14 @@ def compare_drag(falls: dict[Clip, dict[str, float]]) -> None:
 PENDULUM = ("pendulum.mp4", "bob=red", 1.7)
 
 
-def red_centroids(video: Path, frames: NDArray, near: NDArray, half: int = 35) -> NDArray:
-    """In each of ``frames`` (indices), the centroid (px) of max(R − max(G, B) − 30, 0)
-    within ``half`` px of ``near`` (n, 2) px: a red bob's centre by a method that shares
-    nothing with the tracker's fits."""
+def colour_centroids(video: Path, frames: NDArray, near: NDArray, channel: int,
+                     floor: float, half: int) -> NDArray:
+    """In each of ``frames`` (indices), the centroid (px) of how much more ``channel``
+    (0 red, 1 green, 2 blue) a pixel has than the larger of the other two, less
+    ``floor`` (DN, clipped at 0), within ``half`` px of ``near`` (n, 2) px: a coloured
+    object's centre by a method that shares nothing with the tracker's fits."""
     where = dict(zip(frames.tolist(), near, strict=True))
+    others = [c for c in range(3) if c != channel]
     out = []
     for frame in open_frames(video, None).frames():
         if frame.index not in where:
@@ -574,7 +577,7 @@ def red_centroids(video: Path, frames: NDArray, near: NDArray, half: int = 35) -
         rgb = frame.rgb.astype(float)
         i0, j0 = max(round(y) - half, 0), max(round(x) - half, 0)
         patch = rgb[i0:round(y) + half + 1, j0:round(x) + half + 1]
-        w = np.clip(patch[..., 0] - patch[..., 1:].max(axis=2) - 30.0, 0.0, None)
+        w = np.clip(patch[..., channel] - patch[..., others].max(axis=2) - floor, 0.0, None)
         ii, jj = np.mgrid[0:w.shape[0], 0:w.shape[1]]
         out.append(((w * (jj + j0)).sum() / w.sum(), (w * (ii + i0)).sum() / w.sum()))
     return np.array(out)
@@ -612,7 +615,7 @@ def run_pendulum(repo: Path) -> None:
     # A second centre made apart from the tracker: the centroid of how much redder than
     # green and blue each pixel near our fix is. Where its residual against the same
     # swing matches ours, what is left is in the swing, not in either centre.
-    other = red_centroids(video, tab["frame"].to_numpy()[ok], xy)
+    other = colour_centroids(video, tab["frame"].to_numpy()[ok], xy, 0, 30.0, 35)
     r2 = sphere_swing(t, other, (source.width, source.height), length_m, period_guess).residual
     shared = [float(np.corrcoef(r[:, i], r2[:, i])[0, 1]) for i in range(2)]
     print(f"  a second centre (the centroid of the bob's redness, made in this bench) leaves "
@@ -679,25 +682,6 @@ def circle_fit(xy: NDArray) -> tuple[NDArray, float, NDArray]:
     return centre, radius, np.hypot(d[:, 0], d[:, 1]) - radius
 
 
-def green_centroids(video: Path, frames: NDArray, near: NDArray, half: int = 6) -> NDArray:
-    """In each of ``frames`` (indices), the centroid (px) of max(G − max(R, B) − 10, 0)
-    within ``half`` px of ``near`` (n, 2) px: the LED's centre by a method that shares
-    nothing with the tracker's fits (as :func:`red_centroids` for the pendulum)."""
-    where = dict(zip(frames.tolist(), near, strict=True))
-    out = []
-    for frame in open_frames(video, None).frames():
-        if frame.index not in where:
-            continue
-        x, y = where[frame.index]
-        rgb = frame.rgb.astype(float)
-        i0, j0 = max(round(y) - half, 0), max(round(x) - half, 0)
-        patch = rgb[i0:round(y) + half + 1, j0:round(x) + half + 1]
-        w = np.clip(patch[..., 1] - np.maximum(patch[..., 0], patch[..., 2]) - 10.0, 0.0, None)
-        ii, jj = np.mgrid[0:w.shape[0], 0:w.shape[1]]
-        out.append(((w * (jj + j0)).sum() / w.sum(), (w * (ii + i0)).sum() / w.sum()))
-    return np.array(out)
-
-
 def yupi_track(video: Path, python: Path, start: tuple[float, float]) -> pd.DataFrame | None:
     """The peer's track of the LED (``bench/yupi_peer.py`` under ``python``), or None,
     said, where it could not be made."""
@@ -740,15 +724,15 @@ def arm_rate(video: Path, theirs: pd.DataFrame, pivot: NDArray, off: int, last: 
                            "C=none"])
     with tempfile.TemporaryDirectory() as tmp:
         run = track_run(video, tmp, ("A", "B", ARM_MM), specs=specs, window_s=0.2)
-    kin = run.kinematics
+    kin = run.kinematics.set_index("frame")
     pivots = run.tracks.set_index("frame")[["A_x_px", "A_y_px"]]
-    theta = kin.set_index("frame")["theta_deg"]
+    theta = kin["theta_deg"]
     frames = [k for k in theirs.index if off <= k <= last and np.isfinite(theta.get(k, np.nan))]
     if len(frames) < 2:
         print("  the arm's rate: too few frames found by both")
         return
     a, b = frames[0], frames[-1]
-    dt = float(kin.set_index("frame").loc[b, "t_s"] - kin.set_index("frame").loc[a, "t_s"])
+    dt = float(kin.loc[b, "t_s"] - kin.loc[a, "t_s"])
     ours = np.radians(theta[b] - theta[a]) / dt
     led_px = theirs.loc[[a, b]].to_numpy(float)
 
@@ -759,7 +743,7 @@ def arm_rate(video: Path, theirs: pd.DataFrame, pivot: NDArray, off: int, last: 
 
     peer = swept(np.tile(pivot, (2, 1)))
     moving = swept(pivots.loc[[a, b]].to_numpy(float))
-    omega = kin.set_index("frame").loc[a:b, "omega_rad_s"]
+    omega = kin.loc[a:b, "omega_rad_s"]
     print(f"  the arm's rate over the move (frames {a}–{b}): {ours:.4f} rad/s from our θ "
           f"(`--marker A=… B=… C=none`), {peer:.4f} from yupi's LED about our pivot's fix "
           f"at rest ({100 * (ours / peer - 1):+.1f} %), {moving:.4f} about our pivot's fix in "
@@ -824,7 +808,7 @@ def run_rover(repo: Path, yupi_python: Path | None) -> None:
           "wobble or a slow error, not noise)")
     # A second centre made apart from the tracker: where it leaves the same residual
     # against the circle, that residual is the arm's (its wobble), not either centre's.
-    other = green_centroids(video, np.flatnonzero(turn), xy[turn])
+    other = colour_centroids(video, np.flatnonzero(turn), xy[turn], 1, 10.0, 6)
     _, _, r2 = circle_fit(other)
     print(f"  a second centre (the centroid of the LED's greenness, made in this bench) leaves "
           f"{np.sqrt(np.mean(r2**2)):.3f} px across its own circle; the two residuals "
