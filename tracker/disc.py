@@ -115,10 +115,13 @@ def _in_fit(a: float, dx: float, dy: float, reach2: float) -> bool:
 
 @njit(cache=True, nogil=True)
 def _fit_disc_compiled(alpha: NDArray, x0: float, y0: float, gx: float, gy: float,
-                       radius: float, p: NDArray, iterations: int, tol_px: float
+                       radius: float, p: NDArray, iterations: int, tol_px: float,
+                       hold_shape: bool = False
                        ) -> tuple[NDArray, NDArray, float, int, float, bool]:
     """Gauss–Newton of :func:`fit_disc` from ``p``; returns (p, (JᵀJ)⁻¹, RSS,
-    pixels used, Σα, whether JᵀJ was positive definite at the end)."""
+    pixels used, Σα, whether JᵀJ was positive definite at the end). With
+    ``hold_shape`` the radius and edge width stay at ``p``'s: their rows and columns
+    of JᵀJ are those of a parameter that cannot move."""
     h, w = alpha.shape
     X, Y, A = np.empty(h * w), np.empty(h * w), np.empty(h * w)
     reach2 = (radius + 3.0) ** 2
@@ -139,6 +142,12 @@ def _fit_disc_compiled(alpha: NDArray, x0: float, y0: float, gx: float, gy: floa
     rss = np.nan
     for _ in range(iterations):
         rss = _normal_equations(p, X, Y, A, n, JtJ, Jtr)
+        if hold_shape:
+            for i in (2, 3):
+                JtJ[i, :] = 0.0
+                JtJ[:, i] = 0.0
+                JtJ[i, i] = 1.0
+                Jtr[i] = 0.0
         for i in range(6):
             JtJ[i, i] += 1e-9
         L, ok = cholesky(JtJ)
@@ -234,7 +243,7 @@ def _edge_floored(alpha: NDArray, x0: float, y0: float, gx: float, gy: float, ra
 
 def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
              radius: float, iterations: int = 8, tol_px: float = 1e-3,
-             init: tuple[float, ...] | None = None) -> Centre:
+             init: tuple[float, ...] | None = None, hold_shape: bool = False) -> Centre:
     """Gauss–Newton fit of a blurred disc to a coverage patch.
 
     The model is ``b + a·Φ((r − d)/s)`` with ``d`` the distance to the centre
@@ -244,13 +253,14 @@ def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
     σ of the centre is ``√(RSS/(n−6) · (JᵀJ)⁻¹)``. ``init`` carries the
     previous frame's (r, s, a, b) (or a full parameter tuple) so the fit
     starts near its answer; it stops when the centre moves less than
-    ``tol_px``.
+    ``tol_px``. With ``hold_shape`` the radius and edge width stay at ``init``'s
+    and only the centre, gain and offset are fitted.
     """
     shape = (radius, 0.5, 1.0, 0.0) if init is None else tuple(init)[-4:]
     p0 = np.array([guess[0], guess[1], *shape], dtype=np.float64)
     p, inv, rss, n, total, posdef = _fit_disc_compiled(
         np.asarray(alpha, np.float64), float(x0), float(y0), float(guess[0]),
-        float(guess[1]), float(radius), p0, int(iterations), float(tol_px))
+        float(guess[1]), float(radius), p0, int(iterations), float(tol_px), hold_shape)
     if not posdef:
         return Centre(np.nan, np.nan, np.nan, radius, False)
     inv, rss = _edge_floored(np.asarray(alpha, np.float64), float(x0), float(y0),

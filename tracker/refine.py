@@ -52,7 +52,7 @@ def patch_around(image: Frame | NDArray, cx: float, cy: float, half: float
 def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius: float,
            marker: NDArray | None = None, init: tuple[float, ...] | None = None,
            edges: bool | None = None, luminance: bool = False, rim: bool | None = None,
-           wire: bool = False) -> tuple[Centre, NDArray | None]:
+           wire: bool = False, hold_shape: bool = False) -> tuple[Centre, NDArray | None]:
     """Sub-pixel centre of a marker near ``guess`` (see the module's docstring).
 
     Chroma unmixing against a ring background, then a blurred-disc fit. A
@@ -77,6 +77,7 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     fit (:func:`.disc.line_across`), as on the crank-slider's printed discs, which
     its wire crosses; off for other markers, whose own stripes (a cone's tape) are
     theirs.
+    ``hold_shape`` keeps the radius and edge width at ``init``'s (:func:`.disc.fit_disc`).
     Returns the centre and the chroma seen in its middle.
     """
     if rim is True and init is not None:
@@ -104,7 +105,8 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     cells = (not edges and not luminance and isinstance(image, Frame)
              and image.layout == "i420")
     tol = 0.02 if cells else 1e-3
-    fit = fit_disc(alpha, x0, y0, guess, radius, init=init, tol_px=tol)
+    hold = hold_shape and init is not None
+    fit = fit_disc(alpha, x0, y0, guess, radius, init=init, tol_px=tol, hold_shape=hold)
     for _ in range(3):
         # The background ring must be centred on the marker; a guess more than
         # half a pixel off (a prediction when the motion changes) is redone.
@@ -113,7 +115,8 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
         guess = (fit.x, fit.y)
         patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
         alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance)
-        fit = fit_disc(alpha, x0, y0, guess, radius, init=fit.params, tol_px=tol)
+        fit = fit_disc(alpha, x0, y0, guess, radius, init=fit.params, tol_px=tol,
+                       hold_shape=hold)
     fitted = alpha
     hidden, start = (_line_across(alpha, x0, y0, fit, init) if wire
                      else (None, fit.params))
