@@ -275,7 +275,7 @@ def test_a_small_disc_fitted_with_its_shape_held_does_not_run_off():
     shape it had. Free, radius, edge and gain trade off, and a fit of six parameters
     on so few pixels runs off in about a quarter of the patches (a negative radius, a
     gain of 0.2 or of 10: 71 of 300 when this was written). With the radius and edge
-    held (what the tracker falls back on for a marker at rest), none does, and the
+    held (what the tracker falls back on for a followed marker), none does, and the
     centre is no worse. The drawing is area sampling, no code of the tracker's."""
     sub, size, r, gain = 8, 21, 2.4, 0.6
     y, x = (np.mgrid[0:size * sub, 0:size * sub] + 0.5) / sub - 0.5

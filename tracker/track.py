@@ -91,32 +91,38 @@ def _window_blob(frame: Frame, state: MarkerState, at: tuple[float, float], half
     return choose_blob(near, state.area, at, shape=state.spec.takes)
 
 
-#: A marker at rest whose fit from its prediction failed is fitted again with its
+#: A followed marker whose fit from its prediction failed is fitted again with its
 #: radius and edge held (:func:`_held_fit`) if it usually stands out this many times
 #: over its fit's residual, and the held fit does too. Yupi's rover LED (2.4 px):
-#: its fits run off in 9 of 164 frames at rest; held, it shows 3.9–8.7. OpenCV's
-#: vtest.avi: the default A, taken on a patch of lawn, shows a median of 0.8 (90 %
-#: under 2.3); without this bound it was followed there in 22 % of the frames
-#: instead of 2 %, and tracking took twice as long.
+#: its free fits run off in 9 of 164 frames at rest and 8 of 52 on the move; held,
+#: it shows 3.9–8.7. OpenCV's vtest.avi: the default A, taken on a patch of lawn,
+#: shows a median of 0.8 (90 % under 2.3); without this bound it was followed there
+#: in 22 % of the frames instead of 2 %, and tracking took twice as long.
 HELD_CLEAR = 3.0
+#: ...and the held fit lies within this many radii of the prediction: a resting
+#: step (:data:`.marker_state.REST_STEP`) for a marker at rest, this for a moving one.
+#: Held, a fit no longer tells a disc from a patch of texture of its colour, so it
+#: may not walk the marker off: a resting cone on vtest.avi, held within its whole
+#: radius, was carried 158 px away by people passing in front.
+HELD_STEP = 0.5
 
 
 def _held_fit(frame: Frame, state: MarkerState, pred: tuple[float, float],
               luminance: bool) -> tuple[Centre, NDArray | None] | None:
-    """A resting marker's fit with its radius and edge held at its last fit's, where
+    """A followed marker's fit with its radius and edge held at its last fit's, where
     the free fit from ``pred`` failed: on a disc a few pixels across, six parameters
     trade off (radius, edge and gain) and the fit runs off from one frame of a still
-    picture to the next. None unless the marker is at rest and usually clear
-    (:data:`HELD_CLEAR`) and the held fit is clear too and lies within a resting
-    step (:data:`.marker_state.REST_STEP` radii) of ``pred``: held, a fit no longer
-    tells a disc from a patch of texture, and so it may not walk the marker off."""
-    if not (state.resting and not state.rim and state.shape is not None
+    picture to the next. None unless the marker is usually clear
+    (:data:`HELD_CLEAR`) and the held fit is clear too and lies near ``pred``
+    (:data:`HELD_STEP`)."""
+    if not (not state.rim and state.shape is not None
             and (state.gain or 0.0) > HELD_CLEAR * (state.residual or np.inf)):
         return None
     centre, seen = refine(frame, pred, state.radius, state.marker, init=state.shape,
                           luminance=luminance, rim=False, wire=state.spec.flat,
                           hold_shape=True)
-    if not (np.hypot(centre.x - pred[0], centre.y - pred[1]) <= REST_STEP * state.radius
+    reach = (REST_STEP if state.resting else HELD_STEP) * state.radius
+    if not (np.hypot(centre.x - pred[0], centre.y - pred[1]) <= reach
             and centre.gain > HELD_CLEAR * centre.rms_residual):
         return None
     return centre, seen
