@@ -123,7 +123,8 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     if hidden is not None:
         # A wire or thread across the disc: fitted again without its pixels.
         clear = np.where(hidden, np.nan, alpha)
-        again = fit_disc(clear, x0, y0, guess, radius, init=start, tol_px=tol)
+        again = fit_disc(clear, x0, y0, guess, radius, init=start, tol_px=tol,
+                         hold_shape=hold)
         if again.ok:
             # The marker's visible area is all its coverage, the line's pixels too:
             # the checks for a covered marker compare it with its usual.
