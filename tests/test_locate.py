@@ -221,3 +221,32 @@ def test_a_whole_disc_refound_by_its_blob_is_whole():
 def test_an_image_that_is_not_rgb_bytes_gets_one_sentence(bad):
     with pytest.raises(CranktrackError, match="RGB image"):
         locate(bad, DEFAULT_MARKERS)
+
+
+def test_a_held_shape_fit_is_made_only_for_a_clear_predictable_marker_near_its_prediction():
+    """The held-shape fit (what the tracker falls back on where a followed marker's free
+    fit runs off) finds a drawn disc from its prediction, and is refused for a marker
+    that is not usually clear over its fit's residual, whose last fixes missed their
+    predictions by more than half a radius, or whose held fit lands more than half a
+    radius from the prediction: held, a fit no longer tells a disc from texture."""
+    from dataclasses import replace as changed
+
+    from cranktrack.tracker.track import _held_fit
+    from cranktrack.tracker.video import Frame
+
+    state = TrackerState.start([MarkerSpec("B", hue_deg=0)])
+    for k in range(12):  # followed at 2 px a frame, so it is not at rest
+        x = 60.0 + 2.0 * k
+        locate(draw({"B": (x, 70.0, 5.5)}, noise_dn=1.0, seed=k), state=state, t_s=k / 30)
+    marker = state.markers[0]
+    assert not marker.resting and marker.surprise_px is not None
+    x = 60.0 + 2.0 * 12
+    frame = Frame(12, 12 / 30, draw({"B": (x, 70.0, 5.5)}, noise_dn=1.0, seed=12))
+    held = _held_fit(frame, marker, (x + 0.8, 70.3), False)
+    assert held is not None and abs(held[0].x - x) < 0.05 and abs(held[0].y - 70.0) < 0.05
+    assert held[0].params[2:4] == marker.shape[2:4]  # the radius and edge were held
+    assert _held_fit(frame, changed(marker, surprise_px=0.6 * marker.radius),
+                     (x + 0.8, 70.3), False) is None
+    assert _held_fit(frame, changed(marker, residual=marker.gain / 2.5),
+                     (x + 0.8, 70.3), False) is None
+    assert _held_fit(frame, marker, (x + 0.6 * marker.radius, 70.0), False) is None
