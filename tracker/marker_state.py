@@ -413,7 +413,7 @@ class MarkerState:
         # Standing still or moving, remembered past a loss, as are the steps before
         # it. One step out of line (a poor fit) does not end a rest, nor two that go
         # back and forth: two long steps one way (within MOVE_ALIGN) do. Vtest.avi's
-        # reflector cone, whose fits scatter by about a quarter of its radius, lost its
+        # reflector cone, whose fixes step by a quarter of its radius or more, lost its
         # rest on such jitter under an invisible ±1 DN pattern; no longer resting, it
         # took a fix 12 px off, its window grew with that step, and it was taken
         # 170 px away on another orange thing.
