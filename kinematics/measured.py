@@ -56,6 +56,17 @@ def window_samples(t_s: np.ndarray, window_s: float, order: int) -> int:
     return n if n % 2 else n + 1
 
 
+def _unwrapped(theta: np.ndarray, never: str) -> np.ndarray:
+    """Angles (rad, NaN where not measured) unwrapped over the frames that have one;
+    where none has, the markers ``never`` found together say so."""
+    ok = np.isfinite(theta)
+    if not ok.any():
+        raise CranktrackError(f"markers {never} found in the same frame, so the crank angle "
+                              "cannot be measured")
+    theta[ok] = np.unwrap(theta[ok])
+    return theta
+
+
 def crank_angle(tracks: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     """θ (rad, unwrapped, positive on the assembly the run starts in) and its 1-σ.
 
@@ -69,12 +80,8 @@ def crank_angle(tracks: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     ab, ac = B - A, C - A
     cross = ac[:, 0] * ab[:, 1] - ac[:, 1] * ab[:, 0]
     dot = (ac * ab).sum(axis=1)
-    theta = np.arctan2(cross, dot)
+    theta = _unwrapped(np.arctan2(cross, dot), "A, B and C are never all")
     ok = np.isfinite(theta)
-    if not ok.any():
-        raise CranktrackError("markers A, B and C are never all found in the same frame, "
-                              "so the crank angle cannot be measured")
-    theta[ok] = np.unwrap(theta[ok])
     if np.median(theta[ok]) < 0:
         theta = -theta  # the mirror assembly: report the internal angle as positive
     # Gradients of θ with respect to B and C are perpendicular to AB and AC,
@@ -93,12 +100,7 @@ def arm_angle(tracks: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     and its 1-σ: θ of a crank or arm tracked without C. NaN where A or B is missing."""
     A, B = _xy(tracks, "A"), _xy(tracks, "B")
     ab = B - A
-    theta = np.arctan2(ab[:, 1], ab[:, 0])
-    ok = np.isfinite(theta)
-    if not ok.any():
-        raise CranktrackError("markers A and B are never found in the same frame, so the "
-                              "crank angle cannot be measured")
-    theta[ok] = np.unwrap(theta[ok])
+    theta = _unwrapped(np.arctan2(ab[:, 1], ab[:, 0]), "A and B are never")
     # Moving B (or A the other way) across A→B turns it by 1/|AB| per unit.
     s = np.hypot(tracks["A_sigma_mm"].to_numpy(float), tracks["B_sigma_mm"].to_numpy(float))
     return theta, s / np.hypot(ab[:, 0], ab[:, 1])

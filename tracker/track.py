@@ -161,15 +161,17 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict
                 held = False
                 if state.extent is not None:
                     centre, seen = _blob_centre(frame, state, pred, state.motion_px() + 1.0)
+                    plausible = _plausible(centre, pred, state)
                 else:
                     centre, seen = refine(frame, pred, r, state.marker, init=state.shape,
                                           luminance=luminance, rim=state.rim,
                                           wire=state.spec.flat)
-                    again = None if _plausible(centre, pred, state) else \
-                        _held_fit(frame, state, pred, luminance)
+                    plausible = _plausible(centre, pred, state)
+                    again = None if plausible else _held_fit(frame, state, pred, luminance)
                     if again is not None:
                         (centre, seen), held = again, True
-                if _plausible(centre, pred, state):
+                        plausible = _plausible(centre, pred, state)
+                if plausible:
                     if not state.whole(centre):
                         return None, "partly_covered"
                     # A fit with the shape held teaches nothing of the marker's size,
