@@ -647,8 +647,24 @@ LIT_DN = 30
 #: The arm has set off in the first frame whose greenest pixel lies this far (px) from
 #: where it lay in the first frame.
 SET_OFF_PX = 3.0
+#: The rover's body is still while its pivot's redness centroid (made here, apart from
+#: the tracker) steps less than this (px) from frame to frame: it steps up to 0.72 px
+#: while the arm turns, then 1.0–2.5 px a frame from frame 210 as the rover lurches.
+#: The circle and the arm's rate hold only while the pivot stands.
+BODY_STEP_PX = 1.0
 #: The frame `inspect` is asked about: a second in, the rig at rest.
 INSPECT_FRAME = 30
+
+
+def body_still_until(video: Path, place: NDArray, off: int, last: int) -> int:
+    """The last frame from ``off`` to ``last`` before the pivot's redness centroid
+    (within 20 px of its place at rest, ``place`` px) first steps
+    :data:`BODY_STEP_PX` or more from one frame to the next."""
+    frames = np.arange(off, last + 1)
+    centres = colour_centroids(video, frames, np.tile(place, (len(frames), 1)), 0, 10.0, 20)
+    steps = np.hypot(*np.diff(centres, axis=0).T)
+    moved = np.flatnonzero(steps >= BODY_STEP_PX)
+    return int(frames[moved[0]]) if len(moved) else last
 
 
 def greenest(video: Path) -> tuple[NDArray, NDArray]:
@@ -792,12 +808,15 @@ def run_rover(repo: Path, yupi_python: Path | None) -> None:
     print("  at rest, " + at_rest_line("LED", xy[rest & ok], sigma[rest & ok]))
     print("  at rest, " + at_rest_line("pivot", pivot[rest & pivot_ok],
                                        tab["pivot_sigma_px"].to_numpy(float)[rest & pivot_ok]))
-    turn = ~rest & ok & (np.arange(len(tab)) <= last)
+    still = body_still_until(video, np.median(pivot[rest & pivot_ok], axis=0), off, last)
+    turn = ~rest & ok & (np.arange(len(tab)) <= still)
     if turn.sum() < 6:
         print(f"  on the move: found in {turn.sum()} frames, too few for a circle")
         return
     centre, radius, r = circle_fit(xy[turn])
     dof = np.sqrt(r.size / (r.size - 3))
+    print(f"  the body stands until frame {still} (its pivot's redness centroid steps under "
+          f"{BODY_STEP_PX} px a frame; the LED is lit until {last})")
     print(f"  on the move: a circle through our {turn.sum()} fixes (centre ({centre[0]:.1f}, "
           f"{centre[1]:.1f}), radius {radius:.1f} px; the pivot's fix at rest "
           f"{np.hypot(*(centre - np.median(pivot[rest & pivot_ok], axis=0))):.1f} px from its "
@@ -817,7 +836,7 @@ def run_rover(repo: Path, yupi_python: Path | None) -> None:
         peer = yupi_track(video, yupi_python, tuple(xy[np.flatnonzero(ok)[0]]))
         if peer is not None:
             theirs = peer[peer["found"] == 1].set_index("frame")[["x_px", "y_px"]]
-            peer_turn = [k for k in theirs.index if off <= k <= last]
+            peer_turn = [k for k in theirs.index if off <= k <= still]
             _, _, r_peer = circle_fit(theirs.loc[peer_turn].to_numpy(float))
             both = [k for k in theirs.index if ok[k]]
             diff = xy[both] - theirs.loc[both].to_numpy(float)
@@ -828,7 +847,7 @@ def run_rover(repo: Path, yupi_python: Path | None) -> None:
                   f"({offset[0]:+.2f}, {offset[1]:+.2f}) px, RMS after removing it {rms:.2f} px "
                   f"(aim ≤ 1 px); its own circle over the move leaves "
                   f"{np.sqrt(np.mean(r_peer**2)):.3f} px across it")
-            arm_rate(video, theirs, np.median(pivot[rest & pivot_ok], axis=0), off, last)
+            arm_rate(video, theirs, np.median(pivot[rest & pivot_ok], axis=0), off, still)
     else:
         print("  no --yupi-python given: yupi's own track not made")
     print(f"  time: tracking {track_s:.2f} s, decoding alone {decode_s:.2f} s "
