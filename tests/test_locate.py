@@ -283,3 +283,56 @@ def test_a_neighbour_walking_away_far_off_is_not_a_resting_marker_setting_off():
                        state=state, t_s=k / 30)
         statuses.append(found.loc[0, "status"])
     assert "ok" not in statuses, statuses
+
+
+def test_a_neighbour_first_seen_7_6_radii_off_is_not_a_resting_marker_setting_off():
+    """As above, hidden for two frames, then first seen 7.6 radii off: under an invisible
+    ±1 DN pattern a person walking away from vtest.avi's resting reflector cone was
+    first refused 7.95 radii off, and taken up as the cone setting off with a bound of
+    8 radii (the rover's LED sets off 3.6 radii out)."""
+    state = TrackerState.start([MarkerSpec("B", hue_deg=0)])
+    for k in range(10):
+        locate(draw({"B": (60.0, 70.0, 5.5)}, size=(240, 150), noise_dn=1.0, seed=k),
+               state=state, t_s=k / 30)
+    statuses = []
+    for k, x in enumerate([None, None, 101.8, 111.8, 121.8], start=10):
+        discs = {} if x is None else {"B": (x, 70.0, 5.5)}
+        found = locate(draw(discs, size=(240, 150), noise_dn=1.0, seed=k), state=state,
+                       t_s=k / 30)
+        statuses.append(found.loc[0, "status"])
+    assert "ok" not in statuses, statuses
+
+
+def test_a_blobs_failed_fit_is_held_only_for_a_clear_marker_just_followed_in_the_frame():
+    """Where a marker's free fit to the blob found for it fails (a disc 2.4 px across,
+    yupi's rover LED, setting off and on the move), it is fitted again with its radius
+    and edge held, as a followed marker's is. Not for a marker that is not usually
+    clear over its fit's residual, has been lost more than two frames or has no
+    motion yet, whose blob is at the frame's edge (the disc is cut), or which rests
+    and whose blob lies beyond its resting reach. The held fit teaches nothing."""
+    from dataclasses import replace as changed
+
+    from cranktrack.tracker.markers import Blob
+    from cranktrack.tracker.track import _or_held
+    from cranktrack.tracker.video import Frame
+
+    state = TrackerState.start([MarkerSpec("B", hue_deg=0)])
+    for k in range(12):  # followed at 2 px a frame, so it is not at rest
+        x = 60.0 + 2.0 * k
+        locate(draw({"B": (x, 70.0, 5.5)}, noise_dn=1.0, seed=k), state=state, t_s=k / 30)
+    marker = state.markers[0]
+    failed = (None, None, "refine_failed")
+    x = 60.0 + 2.0 * 12
+    frame = Frame(12, 12 / 30, draw({"B": (x, 70.0, 5.5)}, noise_dn=1.0, seed=12))
+    blob = Blob(x + 0.9, 70.4, 95.0, 0.78, 1.0)
+    centre, _, why = _or_held(frame, marker, blob, failed)
+    assert why == "" and abs(centre.x - x) < 0.05 and abs(centre.y - 70.0) < 0.05
+    assert np.isnan(centre.gain) and centre.params == marker.shape
+    ok = (object(), None, "")
+    assert _or_held(frame, marker, blob, ok) is ok
+    for refused in (changed(marker, residual=marker.gain / 2.5), changed(marker, missed=3),
+                    changed(marker, surprise_px=None),
+                    changed(marker, resting=True, history=[(0.3, x - 9.0, 70.0)])):
+        assert _or_held(frame, refused, blob, failed) is failed
+    edge = Frame(12, 12 / 30, draw({"B": (4.0, 70.0, 5.5)}, noise_dn=1.0, seed=12))
+    assert _or_held(edge, marker, Blob(4.0, 70.0, 60.0, 0.78, 0.6), failed) is failed
