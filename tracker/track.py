@@ -148,10 +148,11 @@ def _plausible(c: Centre, guess: tuple[float, float], state: MarkerState) -> boo
         c.x - guess[0], c.y - guess[1]) < state.radius
 
 
-def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict
-            ) -> tuple[Centre | None, str]:
+def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
+            pred: tuple[float, float] | None) -> tuple[Centre | None, str]:
+    """The marker's centre in ``frame`` (at ``t`` s), predicted at ``pred`` (px,
+    :meth:`.MarkerState.predict`), and its status."""
     w, h = frame.size
-    pred = state.predict(t)
     blob, status = None, "not_found"
     if pred is not None and state.radius is not None:
         r = state.radius
@@ -608,7 +609,7 @@ def _locate_markers(frame: Frame, state: TrackerState) -> list:
     found: list[tuple[MarkerState, Centre]] = []
     for k, st in enumerate(state.markers):
         predicted = st.predict(frame.t_s)
-        centre, status = _locate(frame, st, frame.t_s, hsv_cache)
+        centre, status = _locate(frame, st, frame.t_s, hsv_cache, predicted)
         state.balance["gains"] = hsv_cache.get("gains")
         if centre is None:
             values += [np.nan, np.nan, np.nan, False, status]
