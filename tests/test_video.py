@@ -179,3 +179,30 @@ def test_an_avi_that_lists_repeated_frames_is_not_called_truncated(tmp_path):
     assert src.expected_frames == 30
     assert not any("truncated" in p for p in src.problems)
     assert any("holds 10 pictures" in p for p in src.problems), src.problems
+
+
+def test_an_avi_cut_short_is_called_truncated_though_its_pictures_fill_what_is_left(
+        tmp_path):
+    # An AVI cut short keeps its header's frame count, while FFmpeg takes its duration
+    # from the pictures left: OpenCV's vtest.avi cut to its first 2 MB lists 795 frames
+    # (79.5 s at 10 fps) and holds 194 pictures over a "duration" of 19.6 s. Its
+    # pictures fill that duration, as a sparse AVI's do (the test above), but the
+    # listed frames do not fit in it: it is truncated.
+    path = tmp_path / "whole.avi"
+    with av.open(str(path), "w") as out:
+        stream = out.add_stream("mjpeg", rate=15)
+        stream.width, stream.height, stream.pix_fmt = 64, 48, "yuvj420p"
+        for k in range(60):
+            f = _grey(k)
+            f.pts, f.time_base = k, fractions.Fraction(1, 15)
+            for packet in stream.encode(f):
+                out.mux(packet)
+        for packet in stream.encode():
+            out.mux(packet)
+    cut = tmp_path / "cut.avi"
+    cut.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    src = open_frames(cut)
+    got = list(src.frames())
+    assert 10 < len(got) < 50 and src.expected_frames == 60
+    assert any("truncated or damaged" in p for p in src.problems), src.problems
+    assert not any("not cut short" in p for p in src.problems)
