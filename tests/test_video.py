@@ -158,21 +158,27 @@ def test_b_frames_stored_with_decoding_order_times_get_display_order_times(
     assert any("decoding order" in p for p in src.problems) == pts_in_decoding_order
 
 
-def test_an_avi_that_lists_repeated_frames_is_not_called_truncated(tmp_path):
-    # AVI can list a frame slot without a picture (it repeats the one before): OpenCV's
-    # sample tree.avi lists 444 frames over 29.6 s and holds 68 pictures.
-    shown = [0, 1, 2, 5, 6, 7, 12, 20, 21, 29]
-    path = tmp_path / "sparse.avi"
+def _mjpeg_avi(path, shown, rate: int = 15):
+    """An MJPEG AVI at ``rate`` fps holding a grey picture at each frame slot of
+    ``shown`` (the slots between list no picture of their own)."""
     with av.open(str(path), "w") as out:
-        stream = out.add_stream("mjpeg", rate=15)
+        stream = out.add_stream("mjpeg", rate=rate)
         stream.width, stream.height, stream.pix_fmt = 64, 48, "yuvj420p"
         for k in shown:
             f = _grey(k)
-            f.pts, f.time_base = k, fractions.Fraction(1, 15)
+            f.pts, f.time_base = k, fractions.Fraction(1, rate)
             for packet in stream.encode(f):
                 out.mux(packet)
         for packet in stream.encode():
             out.mux(packet)
+    return path
+
+
+def test_an_avi_that_lists_repeated_frames_is_not_called_truncated(tmp_path):
+    # AVI can list a frame slot without a picture (it repeats the one before): OpenCV's
+    # sample tree.avi lists 444 frames over 29.6 s and holds 68 pictures.
+    shown = [0, 1, 2, 5, 6, 7, 12, 20, 21, 29]
+    path = _mjpeg_avi(tmp_path / "sparse.avi", shown)
     src = open_frames(path)
     t = [f.t_s for f in src.frames()]
     np.testing.assert_allclose(t, np.array(shown) / 15, atol=1e-3)
@@ -188,17 +194,7 @@ def test_an_avi_cut_short_is_called_truncated_though_its_pictures_fill_what_is_l
     # (79.5 s at 10 fps) and holds 194 pictures over a "duration" of 19.6 s. Its
     # pictures fill that duration, as a sparse AVI's do (the test above), but the
     # listed frames do not fit in it: it is truncated.
-    path = tmp_path / "whole.avi"
-    with av.open(str(path), "w") as out:
-        stream = out.add_stream("mjpeg", rate=15)
-        stream.width, stream.height, stream.pix_fmt = 64, 48, "yuvj420p"
-        for k in range(60):
-            f = _grey(k)
-            f.pts, f.time_base = k, fractions.Fraction(1, 15)
-            for packet in stream.encode(f):
-                out.mux(packet)
-        for packet in stream.encode():
-            out.mux(packet)
+    path = _mjpeg_avi(tmp_path / "whole.avi", range(60))
     cut = tmp_path / "cut.avi"
     cut.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
     src = open_frames(cut)
