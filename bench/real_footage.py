@@ -659,7 +659,10 @@ INSPECT_FRAME = 30
 def body_still_until(video: Path, place: NDArray, off: int, last: int) -> int:
     """The last frame from ``off`` to ``last`` before the pivot's redness centroid
     (within 20 px of its place at rest, ``place`` px) first steps
-    :data:`BODY_STEP_PX` or more from one frame to the next."""
+    :data:`BODY_STEP_PX` or more from one frame to the next (``last`` where the pivot
+    was never found at rest, ``place`` NaN)."""
+    if not np.all(np.isfinite(place)):
+        return last
     frames = np.arange(off, last + 1)
     centres = colour_centroids(video, frames, np.tile(place, (len(frames), 1)), 0, 10.0, 20)
     steps = np.hypot(*np.diff(centres, axis=0).T)
