@@ -336,3 +336,43 @@ def test_a_blobs_failed_fit_is_held_only_for_a_clear_marker_just_followed_in_the
         assert _or_held(frame, refused, blob, failed) is failed
     edge = Frame(12, 12 / 30, draw({"B": (4.0, 70.0, 5.5)}, noise_dn=1.0, seed=12))
     assert _or_held(edge, marker, Blob(4.0, 70.0, 60.0, 0.78, 0.6), failed) is failed
+
+
+def test_a_placed_markers_failed_blob_is_fitted_again_where_no_blob_is_found(monkeypatch):
+    """A marker placed with @X,Y whose blob by its place was found but whose fit failed
+    is fitted again at that blob in later frames where no blob of its colour is found
+    (on vtest.avi the white plate's colour merged with the wall's after frame 1, and it
+    was not found until frame 230), unless another blob like it lies by the place (the
+    failure says nothing of which one the marker is)."""
+    import cranktrack.tracker.track as tracking
+
+    real_refine = tracking._refine_blob
+    one = draw({"B": (70.3, 60.2, 5.5)}, noise_dn=1.0, seed=0)
+    two = one.copy()  # and a second red disc 20 px off, by the place too
+    two[:, 80:] = draw({"B": (90.3, 60.2, 5.5)}, noise_dn=1.0, seed=0)[:, 80:]
+
+    def run(first: np.ndarray) -> list[str]:
+        calls = {"n": 0}
+
+        def refine_failing_once(frame, state, blob, cache):
+            calls["n"] += 1
+            return (None, None, "refine_failed") if calls["n"] == 1 else real_refine(
+                frame, state, blob, cache)
+
+        monkeypatch.setattr(tracking, "_refine_blob", refine_failing_once)
+        state = TrackerState.start([MarkerSpec("B", hue_deg=0, near_px=(75.0, 60.0))])
+        statuses = [locate(first, state=state).loc[0, "status"]]
+        # Later, its colour is nowhere to be found as a blob (merged, in the real clip).
+        monkeypatch.setattr(tracking, "placed_blob", lambda *a: (None, "not_found"))
+        monkeypatch.setattr(tracking, "full_frame_blob", lambda *a: (None, "not_found"))
+        for k in (1, 2):
+            found = locate(draw({"B": (70.3, 60.2, 5.5)}, noise_dn=1.0, seed=k), state=state,
+                           t_s=k / 30)
+            statuses.append(found.loc[0, "status"])
+            if statuses[-1] == "ok":
+                assert np.hypot(found.loc[0, "x_px"] - 70.3, found.loc[0, "y_px"] - 60.2) < 0.1
+        monkeypatch.undo()
+        return statuses
+
+    assert run(one) == ["refine_failed", "ok", "ok"]
+    assert run(two) == ["refine_failed", "not_found", "not_found"]

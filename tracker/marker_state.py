@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .centre import Centre
-from .markers import AREA_GATE, MarkerSpec, place_reach
+from .markers import AREA_GATE, Blob, MarkerSpec, place_reach
 from .scatter import STAIR_RATIO
 
 #: A fit whose residual exceeds this many times the marker's usual residual is
@@ -188,6 +188,12 @@ class MarkerState:
     #: After a false start, the spec as its colour was learned at the first find; each
     #: later restart goes back to it, not to one learned again from fewer finds.
     first_colour: MarkerSpec | None = None
+    #: A placed marker not yet found: the last blob by its place whose fit failed. On
+    #: vtest.avi under an invisible ±1 DN pattern, the white plate's blob stood alone
+    #: in frame 1 only and its fit failed there; in later frames the plate's colour
+    #: merged with the wall's into one ragged blob, and it was not found until frame
+    #: 230. Fitted again at this blob, it is found from frame 2.
+    placed_failed: Blob | None = None
     #: Frames in which the marker was found while learning its size.
     learning_frames: list[int] = field(default_factory=list)
     #: After a false start: its frames and radius (px), to be judged at the next find.
