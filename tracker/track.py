@@ -41,7 +41,7 @@ from .outline import shaded
 from .refine import patch_around, refine, refine_blob
 from .scatter import found_xy, repeated_frames, with_scatter_floor
 from .search import (
-    full_blobs,
+    balance_gains,
     full_frame_blob,
     full_hsv,
     other_blobs,
@@ -255,10 +255,14 @@ def _placed_rival(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict)
     as is in 121 frames, against 3)."""
     near = state.spec.near_px
     reach = place_reach(blob.radius)
+    # Only the pixels by the place: a marker placed where nothing fits fails there on
+    # every frame, and a whole frame's colours cost as much as decoding it.
+    patch, x0, y0 = patch_around(frame, near[0], near[1], reach + 2.0 * blob.radius + 2.0)
+    hsv = balanced_hsv(patch, balance_gains(frame, hsv_cache))
     return any(state.spec.takes(b) and 0.5 * blob.area <= b.area <= 2.0 * blob.area
                and np.hypot(b.x - blob.x, b.y - blob.y) > 1.0
                and np.hypot(b.x - near[0], b.y - near[1]) <= reach
-               for b in full_blobs(frame, state.spec, hsv_cache))
+               for b in find_blobs(hsv, state.spec, x0, y0))
 
 
 #: How much nearer in log size (a factor of 1.1 in radius) another blob's fit must be
