@@ -334,8 +334,9 @@ def test_a_blobs_failed_fit_is_held_only_for_a_clear_marker_just_followed_in_the
                     changed(marker, surprise_px=None),
                     changed(marker, resting=True, history=[(0.3, x - 9.0, 70.0)])):
         assert _or_held(frame, refused, blob, failed) is failed
-    edge = Frame(12, 12 / 30, draw({"B": (4.0, 70.0, 5.5)}, noise_dn=1.0, seed=12))
-    assert _or_held(edge, marker, Blob(4.0, 70.0, 60.0, 0.78, 0.6), failed) is failed
+    # Within r + 2 px of the edge (a followed prediction's margin), though whole here.
+    edge = Frame(12, 12 / 30, draw({"B": (7.0, 70.0, 5.5)}, noise_dn=1.0, seed=12))
+    assert _or_held(edge, marker, Blob(7.0, 70.0, 95.0, 0.78, 1.0), failed) is failed
 
 
 def test_a_placed_markers_failed_blob_is_fitted_again_where_no_blob_is_found(monkeypatch):
