@@ -114,10 +114,44 @@ HELD_CLEAR = 3.0
 HELD_STEP = 0.5
 
 
-def _clear(state: MarkerState) -> bool:
-    """Does the marker usually stand out :data:`HELD_CLEAR` times over its fit's
-    residual (a marker, not a patch of texture of its colour)?"""
-    return (state.gain or 0.0) > HELD_CLEAR * (state.residual or np.inf)
+def _may_hold(state: MarkerState) -> bool:
+    """May the marker be fitted with its shape held (:func:`_held_fit`, :func:`_or_held`)?
+    A disc (not a rim) with a free fit's shape, that usually stands out
+    :data:`HELD_CLEAR` times over its fit's residual (a marker, not a patch of texture
+    of its colour), and whose motion has been predictable (its last fixes within
+    :data:`HELD_STEP` radii of their predictions, :attr:`.MarkerState.surprise_px`)."""
+    return (not state.rim and state.shape is not None
+            and state.surprise_px is not None and state.surprise_px <= HELD_STEP * state.radius
+            and (state.gain or 0.0) > HELD_CLEAR * (state.residual or np.inf))
+
+
+def _held_at(frame: Frame, state: MarkerState, at: tuple[float, float], reach: float,
+             luminance: bool) -> tuple[Centre, NDArray | None] | None:
+    """The marker's fit from ``at`` (px) with its radius and edge held at its last free
+    fit's, if it lies within ``reach`` px of ``at`` and stands out :data:`HELD_CLEAR`
+    times over its residual; else None."""
+    centre, seen = refine(frame, at, state.radius, state.marker, init=state.shape,
+                          luminance=luminance, rim=False, wire=state.spec.flat,
+                          hold_shape=True)
+    if not (np.hypot(centre.x - at[0], centre.y - at[1]) <= reach
+            and centre.gain > HELD_CLEAR * centre.rms_residual):
+        return None
+    return centre, seen
+
+
+def _teaching_nothing(centre: Centre, state: MarkerState) -> Centre:
+    """A held fit as the marker remembers it: it teaches nothing of its size, gain or
+    residual (its colour is still the middle's), and the next fit starts from the last
+    free fit's shape."""
+    return replace(centre, gain=np.nan, area=np.nan, rms_residual=np.nan, peak=np.nan,
+                   params=state.shape)
+
+
+def _clear_of_edge(frame: Frame, r: float, x: float, y: float) -> bool:
+    """Is (x, y) px far enough inside the frame for a disc of radius ``r`` to be fitted
+    from there (its patch whole)?"""
+    w, h = frame.size
+    return r + 2 <= x <= w - r - 3 and r + 2 <= y <= h - r - 3
 
 
 def _held_fit(frame: Frame, state: MarkerState, pred: tuple[float, float],
@@ -125,22 +159,13 @@ def _held_fit(frame: Frame, state: MarkerState, pred: tuple[float, float],
     """A followed marker's fit with its radius and edge held at its last fit's, where
     the free fit from ``pred`` failed: on a disc a few pixels across, six parameters
     trade off (radius, edge and gain) and the fit runs off from one frame of a still
-    picture to the next. None unless the marker is usually clear
-    (:data:`HELD_CLEAR`) and its motion has been predictable (its last fixes within
-    :data:`HELD_STEP` radii of their predictions, :attr:`.MarkerState.surprise_px`),
-    and the held fit is clear too and lies near ``pred`` (:data:`HELD_STEP`)."""
-    if not (not state.rim and state.shape is not None
-            and state.surprise_px is not None and state.surprise_px <= HELD_STEP * state.radius
-            and _clear(state)):
+    picture to the next. None unless the marker may be held (:func:`_may_hold`) and
+    the held fit is clear and lies near ``pred`` (:data:`HELD_STEP` radii, a resting
+    step at rest)."""
+    if not _may_hold(state):
         return None
-    centre, seen = refine(frame, pred, state.radius, state.marker, init=state.shape,
-                          luminance=luminance, rim=False, wire=state.spec.flat,
-                          hold_shape=True)
     reach = (REST_STEP if state.resting else HELD_STEP) * state.radius
-    if not (np.hypot(centre.x - pred[0], centre.y - pred[1]) <= reach
-            and centre.gain > HELD_CLEAR * centre.rms_residual):
-        return None
-    return centre, seen
+    return _held_at(frame, state, pred, reach, luminance)
 
 
 def _plausible(c: Centre, guess: tuple[float, float], state: MarkerState) -> bool:
@@ -165,7 +190,7 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
         else:
             # Following: refine straight from the prediction; the colour search
             # is only needed when that fails (fast motion, occlusion, a jump).
-            if r + 2 <= pred[0] <= w - r - 3 and r + 2 <= pred[1] <= h - r - 3:
+            if _clear_of_edge(frame, r, *pred):
                 luminance = bool(state.spec.tone)
                 held = False
                 if state.extent is not None:
@@ -183,12 +208,8 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
                 if plausible:
                     if not state.whole(centre):
                         return None, "partly_covered"
-                    # A fit with the shape held teaches nothing of the marker's size,
-                    # gain or residual (its colour is still the middle's): the next
-                    # frame's fit starts from the last free fit's shape.
-                    state.remember(replace(centre, gain=np.nan, area=np.nan, rms_residual=np.nan,
-                                           peak=np.nan, params=state.shape)
-                                   if held else centre, seen, frame.index)
+                    state.remember(_teaching_nothing(centre, state) if held else centre,
+                                   seen, frame.index)
                     return centre, "ok"
             blob, status = _window_blob(frame, state, pred, window(state), hsv_cache)
             setting_off = state.set_off_prediction(t)
@@ -371,7 +392,7 @@ def _or_held(frame: Frame, state: MarkerState, blob: Blob,
     found in 211 of its 216 lit frames, not 205.
 
     Taken only for a marker that usually stands out clearly over its fit's residual
-    (:func:`_clear`) and whose held fit does too, within a radius of the blob's centre;
+    (:func:`_may_hold`) and whose held fit does too, within a radius of the blob's centre;
     that was followed within the last :data:`.marker_state.KEEP_MOTION_MISSED` frames,
     with a motion as predictable as :func:`_held_fit` asks (so its shape is this
     frame's); whose blob lies clear of the frame's edge, as a followed fit's prediction
@@ -383,26 +404,15 @@ def _or_held(frame: Frame, state: MarkerState, blob: Blob,
     frames. Like a followed marker's held fit, it teaches the marker nothing of its
     size, gain or residual."""
     r = state.radius
-    w, h = frame.size
-    if result[2] != "refine_failed" or state.rim or state.shape is None or state.learning \
-            or not _clear(state) or state.missed > KEEP_MOTION_MISSED \
-            or state.surprise_px is None or state.surprise_px > HELD_STEP * r \
-            or not (r + 2 <= blob.x <= w - r - 3 and r + 2 <= blob.y <= h - r - 3) \
+    if result[2] != "refine_failed" or state.learning or not _may_hold(state) \
+            or state.missed > KEEP_MOTION_MISSED or not _clear_of_edge(frame, r, blob.x, blob.y) \
             or (state.resting and state.history and np.hypot(
                 blob.x - state.history[-1][1], blob.y - state.history[-1][2]) > REST_REACH * r):
         return result
-    centre, seen = refine(frame, (blob.x, blob.y), state.radius, state.marker,
-                          init=(blob.x, blob.y, *state.shape[2:]),
-                          luminance=bool(state.spec.tone), rim=False, wire=state.spec.flat,
-                          hold_shape=True)
-    if not (np.hypot(centre.x - blob.x, centre.y - blob.y) <= state.radius
-            and centre.gain > HELD_CLEAR * centre.rms_residual):
+    held = _held_at(frame, state, (blob.x, blob.y), r, bool(state.spec.tone))
+    if held is None or _whole_and_honest(state, *held)[2]:
         return result
-    held = _whole_and_honest(state, centre, seen)
-    if held[2]:
-        return result
-    return (replace(centre, gain=np.nan, area=np.nan, rms_residual=np.nan, peak=np.nan,
-                    params=state.shape), seen, "")
+    return _teaching_nothing(held[0], state), held[1], ""
 
 
 def _whole_or_refitted(frame: Frame, state: MarkerState, centre: Centre,
