@@ -354,13 +354,17 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     else:
         rows = [["--marker", "colour", "x px", "y px", "radius px", "shape", "moves"]]
         rows += [[r.marker, r["name"], f"{r.x_px:.0f}", f"{r.y_px:.0f}", f"{r.radius_px:.1f}",
-                  "disc" if r.disc_like and not r.strip else f"strip (aspect {r.aspect:.1f})",
+                  ("disc" if r.disc_like and not r.strip else f"strip (aspect {r.aspect:.1f})")
+                  + (f", on {r.on}" if r.on else ""),
                   "-" if later is None else ("yes" if r.moves else "no")]
                  for _, r in table.iterrows()]
         print(f"frame {frame.index} (t = {frame.t_s:.3f} s): {len(table)} candidate markers, "
               "most marker-like first")
         print(format_table(rows))
-        picks = " ".join(f"--marker {m}" for m in table["marker"].head(3))
+        # A highlight or the cap of a ball is not suggested: the ball is.
+        whole = table[table["on"] == ""]
+        picks = " ".join(f"--marker {m}" for m in (whole if len(whole) else table)["marker"]
+                         .head(3))
         # A folder of pictures has no clock: the command needs the rate given here.
         fps = f" --fps {args.fps:g}" if args.fps else ""
         # Quoted, so that a path with spaces (Tracker's examples have them) pastes.

@@ -16,21 +16,53 @@ from ..files import write_text_atomic
 def survey_image(rgb: NDArray[np.uint8], table: pd.DataFrame) -> NDArray[np.uint8]:
     """The frame (RGB) with each blob of ``table`` (:func:`cranktrack.tracker.survey.survey`)
     circled and labelled with its ``--marker`` value, its radius (px) and whether it
-    moves; disc-like ones in yellow, strips and streaks in cyan."""
+    moves; disc-like ones in yellow, strips and streaks in cyan. A part of a larger
+    blob (``on``) is labelled with its ``m…`` alone. Each label lies inside the frame
+    and clear of those before it, beside its circle where there is room."""
     img = np.ascontiguousarray(rgb).copy()
-    scale = max(img.shape[1] / 800.0, 0.4)
+    h, w = img.shape[:2]
+    scale = max(w / 800.0, 0.4)
+    font, size = cv2.FONT_HERSHEY_SIMPLEX, 0.45 * scale
+    thick = max(2, int(3 * scale))
+    taken: list[tuple[int, int, int, int]] = []
     for _, r in table.iterrows():
         colour = (255, 220, 0) if r.disc_like else (0, 220, 255)
         centre = (round(r.x_px), round(r.y_px))
-        cv2.circle(img, centre, round(r.radius_px * 1.6 + 3), colour, max(1, int(scale)),
-                   cv2.LINE_AA)
-        label = f"{r.marker}  r{r.radius_px:.0f}" + ("  moves" if r.get("moves", False) else "")
-        at = (centre[0] + int(r.radius_px * 1.6 + 6), centre[1] + 4)
-        cv2.putText(img, label, at, cv2.FONT_HERSHEY_SIMPLEX, 0.45 * scale, (0, 0, 0),
-                    max(2, int(3 * scale)), cv2.LINE_AA)
-        cv2.putText(img, label, at, cv2.FONT_HERSHEY_SIMPLEX, 0.45 * scale, colour,
-                    max(1, int(scale)), cv2.LINE_AA)
+        ring = round(r.radius_px * 1.6 + 3)
+        cv2.circle(img, centre, ring, colour, max(1, int(scale)), cv2.LINE_AA)
+        if r.get("on", ""):
+            label = r.marker.split("=")[0]
+        else:
+            label = (f"{r.marker}  r{r.radius_px:.0f}"
+                     + ("  moves" if r.get("moves", False) else ""))
+        (tw, th), base = cv2.getTextSize(label, font, size, thick)
+        box = _label_box(centre, ring, tw, th + base, w, h, taken)
+        taken.append(box)
+        at = (box[0], box[1] + th)
+        cv2.putText(img, label, at, font, size, (0, 0, 0), thick, cv2.LINE_AA)
+        cv2.putText(img, label, at, font, size, colour, max(1, int(scale)), cv2.LINE_AA)
     return img
+
+
+def _label_box(centre: tuple[int, int], ring: int, tw: int, th: int, w: int, h: int,
+               taken: list[tuple[int, int, int, int]]) -> tuple[int, int, int, int]:
+    """Where a label ``tw`` × ``th`` px goes (left, top, right, bottom): right of its
+    circle, else left of it, clamped into the ``w`` × ``h`` frame, and moved down (then
+    up) a line at a time until it overlaps none of ``taken``."""
+    x = centre[0] + ring + 3
+    if x + tw > w:
+        x = centre[0] - ring - 3 - tw
+    x = int(min(max(x, 0), max(w - tw, 0)))
+    y0 = int(min(max(centre[1] - th // 2, 0), max(h - th, 0)))
+
+    def clear(y: int) -> bool:
+        return all(x >= b[2] or x + tw <= b[0] or y >= b[3] or y + th <= b[1] for b in taken)
+
+    for step in range(0, h // max(th, 1) + 1):
+        for y in (y0 + step * th, y0 - step * th):
+            if 0 <= y <= h - th and clear(y):
+                return x, y, x + tw, y + th
+    return x, y0, x + tw, y0 + th
 
 
 def write_survey_png(path: Path, rgb: NDArray[np.uint8], table: pd.DataFrame) -> Path:

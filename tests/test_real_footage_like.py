@@ -182,6 +182,52 @@ def test_inspect_puts_the_marker_that_moves_first_and_specks_last():
     assert len(alone) == 5 and big.sum() == 3 and big.iloc[:3].all()
 
 
+def test_inspect_puts_a_ball_before_the_dark_cap_on_it_and_suggests_the_ball(tmp_path,
+                                                                          capsys):
+    import cv2
+
+    from cranktrack.cli import main
+    from cranktrack.tracker.survey import survey
+
+    # The pendulum clip's bob: a red ball wider than a marker is expected to be (26 px
+    # in radius), with a dark cap at its top edge, 3 px, round; and a small green disc
+    # of its own elsewhere. The cap alone is a marker-like disc of a marker's size, and
+    # was listed before the ball.
+    ball, cap, green = (250.0, 150.0, 26.0), (250.0, 124.5, 3.0), (60.0, 60.0, 6.0)
+    image = draw([(*ball, (200.0, 30.0, 40.0)), (*cap, (15.0, 15.0, 15.0)),
+                  (*green, (40.0, 170.0, 60.0))], background=(200.0, 200.0, 200.0),
+                 size=(480, 300))
+    table = survey(image)
+    caps = table[(np.hypot(table.x_px - cap[0], table.y_px - cap[1]) < 2)]
+    balls = table[(np.hypot(table.x_px - ball[0], table.y_px - ball[1]) < 2)]
+    assert len(caps) == 1 and len(balls) == 1
+    assert caps.index[0] > balls.index[0] and caps.iloc[0].on == f"m{balls.index[0] + 1}"
+    assert (table.loc[table.index != caps.index[0], "on"] == "").all()
+    # The command suggests the ball and the green disc, not the cap on the ball.
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    for i in range(2):
+        cv2.imwrite(str(frames / f"f{i:03d}.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+    assert main(["inspect", str(frames), "--fps", "10", "--out", str(tmp_path / "s.png")]) == 0
+    out = capsys.readouterr().out
+    command = next(line for line in out.splitlines() if "cranktrack track" in line)
+    assert caps.iloc[0].marker not in command and balls.iloc[0].marker in command
+    assert f", on {caps.iloc[0].on}" in out
+
+
+def test_the_survey_pictures_labels_stay_in_the_frame_and_apart():
+    from cranktrack.report.survey import _label_box
+
+    taken: list[tuple[int, int, int, int]] = []
+    # Three blobs at one place by the right edge of a 200 × 100 frame.
+    for _ in range(3):
+        box = _label_box((190, 50), 10, 120, 12, 200, 100, taken)
+        assert 0 <= box[0] and box[2] <= 200 and 0 <= box[1] and box[3] <= 100
+        assert box[2] <= 190 - 10  # left of the circle: no room right of it
+        assert all(box[3] <= b[1] or box[1] >= b[3] for b in taken)
+        taken.append(box)
+
+
 def test_two_markers_never_share_one_blob():
     # Two pucks given the same hue by hand, one of them out of the frame: both markers
     # would lock onto the one puck there is.

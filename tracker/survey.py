@@ -102,6 +102,39 @@ def _moved(table: pd.DataFrame, later: pd.DataFrame) -> NDArray[np.bool_]:
     return moved
 
 
+#: A blob on a round blob of one colour at least this many times its radius is a part
+#: of it (a highlight, a dark spot or the cap of a ball), and a round blob up to this
+#: fraction of the frame's smaller side can hold such parts (wider ones are the scene).
+PART_SIZE = 2.0
+PART_OF_PX = 0.1
+#: A shaded ball's mask leaves out its darker rim, so its outline reaches past the
+#: radius of its area: the pendulum clip's red bob is 26 px by its area, and the dark
+#: cap on top of it 28–30 px from its centre.
+PART_REACH = 1.25
+
+
+def _holders(table: pd.DataFrame, widest_px: float) -> NDArray[np.int64]:
+    """For each blob of ``table``, the index label of the blob it is a part of, or −1:
+    the largest disc-like colour blob at least :data:`PART_SIZE` times its radius and
+    at most ``widest_px`` in radius that it lies on (within its own radius and
+    :data:`PART_REACH` times the other's). White and black blobs hold no parts: a dark
+    body or a light wall is what markers are stuck on (yupi's rover: its red pivot on
+    the rover's dark body)."""
+    tone = table["colour"].isin(["white", "black"])
+    holder = table[table["disc_like"] & ~tone & (table["radius_px"] <= widest_px)]
+    out = np.full(len(table), -1, dtype=np.int64)
+    if holder.empty:
+        return out
+    gap = np.hypot(table["x_px"].to_numpy()[:, None] - holder["x_px"].to_numpy()[None, :],
+                   table["y_px"].to_numpy()[:, None] - holder["y_px"].to_numpy()[None, :])
+    big, small = holder["radius_px"].to_numpy()[None, :], table["radius_px"].to_numpy()[:, None]
+    on = (gap <= PART_REACH * big + small) & (big >= PART_SIZE * small)
+    largest = np.argmax(np.where(on, big, -1.0), axis=1)
+    found = on.any(axis=1)
+    out[found] = holder.index.to_numpy()[largest[found]]
+    return out
+
+
 def survey(rgb: NDArray[np.uint8], min_area_px: int = 12, most: int = 12,
            later: NDArray[np.uint8] | None = None) -> pd.DataFrame:
     """Candidate markers in an RGB frame, the most marker-like first.
@@ -112,16 +145,19 @@ def survey(rgb: NDArray[np.uint8], min_area_px: int = 12, most: int = 12,
     when tracked), ``colour`` (``white``, ``black`` or the hue in degrees,
     rounded), ``name`` (the nearest colour name, for people), ``moves`` (with
     ``later``, a frame of the same clip a little later: the blob is not there
-    then, at its place and size; else False) and ``marker``: the ``--marker``
-    value that follows it, e.g. ``m1=120@312,99``. Blobs found in two overlapping
-    hue windows are listed once; strips and streaks are kept (the tracker follows
-    them too) but a round blob of a marker's size ranks higher, and among those one
-    that moves: what people film a marker for.
+    then, at its place and size; else False), ``on`` (the ``m…`` of the larger
+    round colour blob this one is a part of, such as a highlight or the cap of a
+    ball; else "") and ``marker``: the ``--marker`` value that follows it, e.g.
+    ``m1=120@312,99``. Blobs found in two overlapping hue windows are listed once;
+    strips and streaks are kept (the tracker follows them too) but a round blob of
+    a marker's size ranks higher, and among those one that moves: what people film
+    a marker for. Parts of another blob come last.
     """
     gains = white_balance_gains(rgb)
     table = _blobs_table(balanced_hsv(rgb, gains), min_area_px)
     if table.empty:
         return table.drop(columns="cored").assign(moves=pd.Series(dtype=bool),
+                                                  on=pd.Series(dtype=str),
                                                   marker=pd.Series(dtype=str))
     table["moves"] = (False if later is None else
                       _moved(table, _blobs_table(balanced_hsv(later, gains), min_area_px)))
@@ -140,16 +176,21 @@ def survey(rgb: NDArray[np.uint8], min_area_px: int = 12, most: int = 12,
     table["plain_disc"] = table["disc_like"] & ~table["cored"]
     table["too_big"] = table["radius_px"] > max(25.0, 0.03 * min(rgb.shape[:2]))
     table["speck"] = table["radius_px"] < max(2.5, 0.006 * min(rgb.shape[:2]))
-    table = table.sort_values(["plain_disc", "too_big", "speck", "moves", "roundness"],
-                              ascending=[False, True, True, False, True])
+    table["holder"] = _holders(table, PART_OF_PX * min(rgb.shape[:2]))
+    table["part"] = table["holder"] >= 0
+    table = table.sort_values(["part", "plain_disc", "too_big", "speck", "moves", "roundness"],
+                              ascending=[True, False, True, True, False, True])
     kept: list[int] = []
     for i, r in table.iterrows():
         if all(np.hypot(r.x_px - table.at[j, "x_px"], r.y_px - table.at[j, "y_px"])
                > max(r.radius_px, 2.0) for j in kept):
             kept.append(i)
     table = table.loc[kept].head(most).drop(
-        columns=["roundness", "too_big", "plain_disc", "speck", "cored"])
-    table = table.reset_index(drop=True)
+        columns=["roundness", "too_big", "plain_disc", "speck", "cored", "part"])
+    label = {i: f"m{k + 1}" for k, i in enumerate(table.index)}
+    # A part whose holder fell out of the list (a duplicate place) is still a part.
+    table["on"] = [label.get(h, "a larger blob") if h >= 0 else "" for h in table["holder"]]
+    table = table.drop(columns="holder").reset_index(drop=True)
     table["marker"] = [f"m{k + 1}={r.colour}@{r.x_px:.0f},{r.y_px:.0f}"
                        for k, r in table.iterrows()]
     return table
