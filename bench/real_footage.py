@@ -596,6 +596,11 @@ def run_pendulum(repo: Path) -> None:
           f"`--marker {marker}`")
     print(f"  found in {ok.sum()} of {len(tab)} frames ({100 * ok.mean():.0f} %; the bob is in "
           "view in every frame)")
+    if ok[0]:
+        at0 = tab[[f"{bob}_x_px", f"{bob}_y_px"]].to_numpy(float)[0]
+        rank, listed = inspect_rank(video, None, 0, (float(at0[0]), float(at0[1])))
+        print(f"  `inspect` at frame 0 lists the bob "
+              f"{'not at all' if rank is None else f'{rank}.'} of {listed} candidates")
     t = tab["t_s"].to_numpy(float)[ok]
     xy = tab[[f"{bob}_x_px", f"{bob}_y_px"]].to_numpy(float)[ok]
     sigma = tab[f"{bob}_sigma_px"].to_numpy(float)[ok]
