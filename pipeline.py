@@ -26,6 +26,7 @@ from .calibration.plane import (
     add_plane_coordinates,
     align_to_markers,
 )
+from .environment import library_versions
 from .errors import CranktrackError, RunInterrupted
 from .files import (
     ensure_dir,
@@ -113,15 +114,6 @@ class RunResult:
     calibration: PlaneCalibration | None
     files: dict[str, Path] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
-
-
-def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("cranktrack")
-    except PackageNotFoundError:
-        return "unknown"
 
 
 #: The smallest frame side a marker and the ring around it can fit in, px.
@@ -362,8 +354,11 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
     files = {"tracks": write_csv_atomic(folder / TRACKS, tracks)}
     run_info = {
         "schema": RUN_SCHEMA,
-        "cranktrack": _version(),
+        "cranktrack": (libraries := library_versions())["cranktrack"],
         "python": platform.python_version(),
+        # What decided the numbers besides the code: another OpenCV, FFmpeg or numba
+        # can take another blob first (environment.py).
+        "libraries": libraries,
         "created": datetime.now(UTC).isoformat(timespec="seconds"),
         "source": {"path": str(Path(video).resolve()), "kind": source.kind,
                    "codec": source.codec, "width": source.width, "height": source.height},

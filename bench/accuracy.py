@@ -35,6 +35,7 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import scene
 
+from cranktrack.environment import versions_line
 from cranktrack.synthetic.bounds import marker_crb_px
 from cranktrack.synthetic.scene import RenderSettings, SceneFiles
 from cranktrack.tracker.centre import weighted_centroid
@@ -89,6 +90,7 @@ def case_scene(label: str, settings: RenderSettings
 
 
 def main() -> None:
+    print(f"libraries: {versions_line()}")
     for label, settings in CASES.items():
         files, truth, meta, radius = case_scene(label, settings)
         errs: dict = {}

@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 
 from cranktrack.calibration.known_length import parse_known_length
+from cranktrack.environment import versions_line
 from cranktrack.loop.frame_motion import frame_shake
 from cranktrack.loop.search import close_loop
 from cranktrack.models.spool import SpoolDrive
@@ -525,6 +526,7 @@ def main_bench() -> None:
     ap.add_argument("--sma-only", action="store_true",
                     help="only the SMA model's null renders and ladders (slow: ~2 min a fit)")
     args = ap.parse_args()
+    print(f"libraries: {versions_line()}")
     if args.frame_only:
         frame_motion(args.seeds)
         return

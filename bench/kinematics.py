@@ -34,6 +34,7 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import scene
 
+from cranktrack.environment import versions_line
 from cranktrack.pipeline import track_run
 from cranktrack.synthetic.scene import RenderSettings
 
@@ -61,6 +62,7 @@ def main() -> None:
                         help="first seed of the renders after seed 3 (200: held-out renders "
                              "not used when the σ were designed)")
     args = parser.parse_args()
+    print(f"libraries: {versions_line()}")
     pooled: dict[str, list] = {c: [] for c in COLUMNS}
     for i, seed in enumerate([3, *range(args.seed_base, args.seed_base + args.seeds - 1)]):
         k, truth, info, video = measure(seed)

@@ -26,6 +26,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import clip_1080p, track_command
 
+from cranktrack.environment import versions_line
 from cranktrack.synthetic.video import VideoWriter
 from cranktrack.tracker.video import open_frames
 
@@ -68,6 +69,7 @@ def peak_mib(command: list[str]) -> float:
 
 
 def main() -> None:
+    print(f"libraries: {versions_line()}")
     short = clip_1080p(900)
     long = short.folder / "looped_9000.mp4"
     looped(short.video, long, 10, 30.0)

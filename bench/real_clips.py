@@ -31,6 +31,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import CACHE
 
+from cranktrack.environment import versions_line
 from cranktrack.pipeline import track_run
 from cranktrack.tracker.markers import parse_markers
 from cranktrack.tracker.track import Span, track
@@ -71,6 +72,7 @@ def fetch() -> dict[str, Path]:
 
 
 def main() -> None:
+    print(f"libraries: {versions_line()}")
     for name, path in fetch().items():
         src = open_frames(path)
         t0 = time.perf_counter()

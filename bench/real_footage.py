@@ -53,6 +53,7 @@ from common import CACHE
 from pendulum import G, plane_swing, sphere_swing
 
 from cranktrack.calibration.readout import readout_from_flight, tilted_plane_residual
+from cranktrack.environment import versions_line
 from cranktrack.pipeline import track_run
 from cranktrack.tracker.markers import parse_markers
 from cranktrack.tracker.survey import frame_and_later, survey
@@ -866,6 +867,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     add_clip_paths(ap)
     args = ap.parse_args()
+    print(f"libraries: {versions_line()}")
     given = [p for p in (args.tracker, args.pendulum, args.rover)
              if p is not None and p.exists()]
     if not given:

@@ -39,6 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import real_clips
 import real_footage
 
+from cranktrack.environment import versions_line
 from cranktrack.tracker.markers import parse_markers
 from cranktrack.tracker.track import track
 from cranktrack.tracker.video import Frame, FrameSource, open_frames
@@ -113,6 +114,7 @@ def main() -> None:
     real_footage.add_clip_paths(ap)
     ap.add_argument("--seeds", type=int, default=3, help="patterns per clip (default 3)")
     args = ap.parse_args()
+    print(f"libraries: {versions_line()}")
     vtest = real_clips.CACHE / "opencv-doc" / "vtest.avi"
     given = [p for p in (args.tracker, args.pendulum, args.rover)
              if p is not None and p.exists()]

@@ -29,6 +29,7 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import scene
 
+from cranktrack.environment import versions_line
 from cranktrack.pipeline import fit_run, measure_run, track_run
 from cranktrack.synthetic.scene import RenderSettings
 
@@ -40,6 +41,7 @@ def main() -> None:
     ap.add_argument("--no-loop", action="store_true",
                     help="leave out the closed loop's readout and `measure` with it")
     args = ap.parse_args()
+    print(f"libraries: {versions_line()}")
     for readout_ms in [0.0, *args.readouts_ms]:
         name = "H.264_crf_20_noisy" if readout_ms == 0 else f"H.264_crf_20_noisy_rs{readout_ms:g}"
         files = scene(name, RenderSettings(size=(1280, 720), fps=30.0, seconds=4.0, seed=3,

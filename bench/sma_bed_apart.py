@@ -59,6 +59,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 # Only the tracking and its error type: the picture and the truth are drawn here.
+from cranktrack.environment import versions_line
 from cranktrack.errors import CranktrackError
 from cranktrack.pipeline import track_run
 
@@ -279,6 +280,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--no-wire", action="store_true",
                         help="draw no SMA wire: what is left is the bar's and the codec's")
     args = parser.parse_args(argv)
+    print(f"libraries: {versions_line()}")
     cases = [CASES[i] for i in args.case] if args.case else list(CASES)
     print(f"SMA bed, second renderer: {SIZE[0]}×{SIZE[1]}, {args.fps:g} fps, {args.seconds:g} s, "
           f"{PX_PER_MM} px/mm, markers {MARKER_MM:g} mm ({MARKER_MM * PX_PER_MM / 2:.1f} px "

@@ -48,6 +48,7 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import clip_1080p, track_command
 
+from cranktrack.environment import versions_line
 from cranktrack.synthetic.scene import SceneFiles
 from cranktrack.tracker.markers import DEFAULT_MARKERS
 from cranktrack.tracker.track import track
@@ -173,6 +174,7 @@ def main() -> None:
     ap.add_argument("--startup-only", action="store_true",
                     help="measure the start-up only, not the tracking speed")
     args = ap.parse_args()
+    print(f"libraries: {versions_line()}")
     files = clip_1080p(args.frames)
     startup(files.video)
     if args.startup_only:
