@@ -14,6 +14,9 @@ that the answer should not change, so it needs no peer and no physics:
 - *jumps*: fixes that moved by more than 3 px (another place on the object, or
   another object).
 
+Last, the crank-slider's default markers (A green, B red, C blue) on OpenCV's clips
+that hold no markers, as is and with each pattern: every find there is false.
+
 The clips are those of ``bench/real_footage.py`` (Tracker's examples, a real
 pendulum and yupi's rover wheel) and the objects at rest of ``bench/real_clips.py``
 (OpenCV's vtest.avi, from its cache). Clips are not committed; give the same paths as to
@@ -40,7 +43,7 @@ import real_clips
 import real_footage
 
 from cranktrack.environment import versions_line
-from cranktrack.tracker.markers import parse_markers
+from cranktrack.tracker.markers import DEFAULT_MARKERS, parse_markers
 from cranktrack.tracker.track import track
 from cranktrack.tracker.video import Frame, FrameSource, open_frames
 from cranktrack.warmup import compile_kernels
@@ -109,6 +112,22 @@ def run(label: str, video: Path, fps: float | None, markers: list[str], seeds: i
         print("  " + compare(spec.name, base, others))
 
 
+def run_no_markers(video: Path, seeds: int) -> None:
+    """The crank-slider's default markers on a clip that has none: the share of frames
+    each is "found" in, as is and with each pattern. Every find is false here, so this
+    is how often the defaults take something for a marker, and whether that hangs on
+    a pixel."""
+    found = []
+    for seed in [None, *range(seeds)]:
+        source = open_frames(video, None)
+        tab = track(source if seed is None else Patterned(source, seed), DEFAULT_MARKERS).tracks
+        found.append({s.name: 100 * float(tab[f"{s.name}_ok"].mean()) for s in DEFAULT_MARKERS})
+    print(f"  {video.name}: " + "; ".join(
+        f"{s.name} {found[0][s.name]:.1f} % as is, "
+        + "/".join(f"{f[s.name]:.0f}" for f in found[1:]) + " % with the patterns"
+        for s in DEFAULT_MARKERS))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     real_footage.add_clip_paths(ap)
@@ -143,6 +162,13 @@ def main() -> None:
             run(name, video, None, [led, pivot], args.seeds)
     if vtest.exists():
         run("vtest.avi, objects at rest", vtest, None, list(real_clips.AT_REST), args.seeds)
+    clips = [real_clips.CACHE / "opencv-doc" / n for n in ("box.mp4", "cup.mp4", "tree.avi",
+                                                            "vtest.avi")]
+    if any(c.exists() for c in clips):
+        print("\nClips with no markers: the defaults A, B, C taken for a marker (% of frames)")
+        for clip in clips:
+            if clip.exists():
+                run_no_markers(clip, args.seeds)
 
 
 if __name__ == "__main__":
