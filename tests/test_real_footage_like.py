@@ -228,6 +228,27 @@ def test_the_survey_pictures_labels_stay_in_the_frame_and_apart():
         taken.append(box)
 
 
+def test_a_default_marker_is_not_taken_by_the_centroid_of_a_blob_no_disc_fits():
+    # OpenCV's vtest.avi: a blue board with white lettering, in frames where its disc
+    # fit failed, was taken for the default C by the blob's centroid (refine's fallback
+    # for an acquisition), and followed for hundreds of frames. Drawn here: a blue
+    # board 20 × 24 px crossed by two white stripes 4 px wide; beside it, for contrast,
+    # a printed blue disc elsewhere in the same scene is found.
+    blue = (30.0, 60.0, 200.0)
+
+    def board(image):
+        image[69:93, 105:125] = blue
+        for y in (77, 85):
+            image[y:y + 4, 108:122] = (235.0, 235.0, 235.0)
+
+    image = draw([], background=(120.0, 120.0, 120.0), extra=board)
+    found = locate(image, [DEFAULT_MARKERS[2]]).iloc[0]
+    assert not found.ok and found.status == "refine_failed"
+    disc = draw([(60.3, 40.6, 8.0, blue)], background=(120.0, 120.0, 120.0))
+    found = locate(disc, [DEFAULT_MARKERS[2]]).iloc[0]
+    assert found.ok and np.hypot(found.x_px - 60.3, found.y_px - 40.6) < 0.1
+
+
 def test_two_markers_never_share_one_blob():
     # Two pucks given the same hue by hand, one of them out of the frame: both markers
     # would lock onto the one puck there is.

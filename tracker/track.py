@@ -369,6 +369,10 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
             # fit would be pulled toward the light by pixels with a small σ.
             if ball:
                 return None, None, "rejected"
+            if centre.params is None:
+                # No disc fitted, only the blob's centroid (refine's fallback for an
+                # acquisition): a printed disc is fitted as one.
+                return _or_held(frame, state, blob, (None, None, "refine_failed"))
             return _or_held(frame, state, blob,
                             _whole_or_refitted(frame, state, centre, seen, radius, luminance))
         state.rim = ball
