@@ -339,6 +339,34 @@ def test_a_blobs_failed_fit_is_held_only_for_a_clear_marker_just_followed_in_the
     assert _or_held(edge, marker, Blob(7.0, 70.0, 95.0, 0.78, 1.0), failed) is failed
 
 
+def test_a_resting_markers_fit_at_another_size_is_not_taken():
+    """Yupi's rover LED at rest, unchanged to the eye, was fitted from its prediction at
+    1.33 px in radius against 2.38 the frame before, 0.9 px off with σ 0.3: another
+    solution of the disc model. At rest a fit more than 1.5 times off the last fit's
+    radius is not plausible (the marker is then fitted with its shape held); on the
+    move the fitted size may change with blur and distance, and is not judged so."""
+    from dataclasses import replace as changed
+
+    from cranktrack.tracker.centre import Centre
+    from cranktrack.tracker.track import RADIUS_STEP, _plausible
+
+    state = TrackerState.start([MarkerSpec("B", hue_deg=0)])
+    for k in range(8):
+        locate(draw({"B": (60.3, 70.6, 5.5)}, noise_dn=1.0, seed=k), state=state, t_s=k / 30)
+    marker = state.markers[0]
+    assert marker.resting
+    last = marker.shape[2]
+
+    def centre(radius: float) -> Centre:
+        return Centre(60.3 + 0.5, 70.6, 0.1, radius, True, 0.02, marker.gain or 1.0)
+
+    assert _plausible(centre(last * 1.2), (60.3, 70.6), marker)
+    assert not _plausible(centre(last / (RADIUS_STEP * 1.1)), (60.3, 70.6), marker)
+    assert not _plausible(centre(last * RADIUS_STEP * 1.1), (60.3, 70.6), marker)
+    moving = changed(marker, resting=False)
+    assert _plausible(centre(last / (RADIUS_STEP * 1.1)), (60.3, 70.6), moving)
+
+
 def test_a_placed_markers_failed_blob_is_fitted_again_where_no_blob_is_found(monkeypatch):
     """A marker placed with @X,Y whose blob by its place was found but whose fit failed
     is fitted again at that blob in later frames where no blob of its colour is found
