@@ -272,6 +272,13 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
     elif not failure and whole_frame and len(state.history) == 1 and state.radius:
         centre, seen = _likest(frame, state, hsv_cache, pred, blob, centre, seen)
     if failure:
+        at_blob = Centre(blob.x, blob.y, np.nan, blob.radius, False)
+        if state.off_its_place(at_blob, pred):
+            # A resting marker's blob off its place whose fit failed: the first frames
+            # of a set-off are blurred, and their fits fail. It marks the way a later
+            # fix off the place may be taken up along (MarkerState.moved_off), as a
+            # fix refused there would; it is no fix itself.
+            state.stray = (t, at_blob)
         return None, failure
     if state.off_its_place(centre, pred) and not state.moved_off(centre, t):
         return None, "rejected"  # a neighbour of its colour, not a marker at rest
@@ -680,7 +687,8 @@ def _locate_markers(frame: Frame, state: TrackerState) -> list:
             if st.false_start is not None:
                 _judge_false_start(state.rows, k, st, centre.radius)
             if st.taken_up is not None:
-                _give_back(state.rows, k, *st.taken_up)
+                if st.taken_up[1].ok:  # a fix, not a blob whose fit failed
+                    _give_back(state.rows, k, *st.taken_up)
                 st.taken_up = None
             st.found_at(frame.t_s, centre.x, centre.y, predicted)
             values += [centre.x, centre.y, centre.sigma, True, status]
