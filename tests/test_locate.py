@@ -171,6 +171,71 @@ def test_a_resting_marker_that_set_off_is_looked_for_on_its_way():
     assert statuses[12] == "rejected", statuses
 
 
+def test_a_resting_marker_whose_first_fits_on_the_move_fail_is_taken_up(monkeypatch):
+    """The first frames of a set-off are blurred, and their fits fail (yupi's rover LED
+    under one invisible ±1 DN pattern, frames 164 and 165: then lost for the whole
+    turn, 52 frames). A blob off the resting marker's place whose fit failed marks the
+    way, as a refused fix would, and the marker is taken up from the next fix along
+    it. It is no fix itself: those frames stay gaps. Here the fits of the three frames
+    after it sets off at 8 px a frame are made to fail; then it lies beyond the window
+    a marker at rest is looked for in."""
+    import cranktrack.tracker.track as tracking
+    from cranktrack.tracker.centre import Centre
+
+    fitted = tracking.refine
+    failing = {"now": False}
+
+    def blurred(*args, **kwargs):
+        if failing["now"]:
+            return Centre(np.nan, np.nan, np.nan, np.nan, False), None
+        return fitted(*args, **kwargs)
+
+    monkeypatch.setattr(tracking, "refine", blurred)
+    state = TrackerState.start([MarkerSpec("B", hue_deg=0)])
+    statuses = []
+    for k in range(18):
+        x = 60.0 + 8.0 * max(k - 9, 0)
+        failing["now"] = k in (10, 11, 12)
+        found = locate(draw({"B": (x, 70.0, 5.5)}, size=(320, 150), noise_dn=1.0, seed=k),
+                       state=state, t_s=k / 30)
+        statuses.append(found.loc[0, "status"])
+        if k >= 15:
+            assert statuses[-1] == "ok", (k, statuses)
+            assert abs(found.loc[0, "x_px"] - x) < 0.05, k
+    assert all(s != "ok" for s in statuses[10:13]), statuses
+
+
+def test_a_blob_that_marked_a_set_off_is_not_written_as_a_fix(tmp_path, monkeypatch):
+    """Tracked as a clip, the frames whose fits failed as the marker set off stay gaps
+    in the tracks table once it is taken up (a fix refused there would be given back
+    to its frame; a blob's centroid is no fix)."""
+    import cv2
+
+    import cranktrack.tracker.track as tracking
+    from cranktrack.tracker.centre import Centre
+    from cranktrack.tracker.video import open_frames
+
+    fitted = tracking.refine
+
+    def blurred(image, *args, **kwargs):
+        if getattr(image, "index", -1) in (10, 11, 12):
+            return Centre(np.nan, np.nan, np.nan, np.nan, False), None
+        return fitted(image, *args, **kwargs)
+
+    monkeypatch.setattr(tracking, "refine", blurred)
+    xs = {k: 60.0 + 8.0 * max(k - 9, 0) for k in range(20)}
+    for k, x in xs.items():
+        cv2.imwrite(str(tmp_path / f"{k:03d}.png"), cv2.cvtColor(
+            draw({"B": (x, 70.0, 5.5)}, size=(320, 150), noise_dn=1.0, seed=k),
+            cv2.COLOR_RGB2BGR))
+    result = tracking.track(open_frames(tmp_path, 30.0), (MarkerSpec("B", hue_deg=0),))
+    ok = result.tracks["B_ok"].astype(bool).to_numpy()
+    assert not ok[10:13].any() and ok[15:].all(), result.tracks["B_status"].tolist()
+    # The rows as tracked, before the table's σ checks (a row written with no σ would
+    # be made a gap there too).
+    assert all("ok" not in result.state.rows[k] for k in (10, 11, 12))
+
+
 def test_the_fix_refused_as_a_resting_marker_set_off_is_given_back(tmp_path):
     """Tracked as a clip (PNG pictures at 30 fps), the frame whose fix was refused as
     off the resting marker's place, and then taken up as the marker setting off, is
