@@ -12,7 +12,9 @@ that the answer should not change, so it needs no peer and no physics:
   95th percentile, against the σ the tracker gave as is. A fix that moves by σ under
   a change this small has an error of at least that from noise alone;
 - *jumps*: fixes that moved by more than 3 px (another place on the object, or
-  another object).
+  another object);
+- *learned*: what each run learned of the marker once (its radius, its hue window's
+  centre, whether it is centred by its rim): the decisions behind such changes.
 
 Last, the crank-slider's default markers (A green, B red, C blue) on OpenCV's clips
 that hold no markers, as is and with each pattern: every find there is false.
@@ -44,7 +46,7 @@ import real_footage
 
 from cranktrack.environment import versions_line
 from cranktrack.tracker.markers import DEFAULT_MARKERS, parse_markers
-from cranktrack.tracker.track import track
+from cranktrack.tracker.track import TrackResult, track
 from cranktrack.tracker.video import Frame, FrameSource, open_frames
 from cranktrack.warmup import compile_kernels
 
@@ -99,17 +101,33 @@ def compare(name: str, base: pd.DataFrame, others: list[pd.DataFrame]) -> str:
             f"{jumps} of {len(d)}")
 
 
+def learned(name: str, results: list[TrackResult]) -> str:
+    """What each run learned of marker ``name`` once (its size, its hue window, whether
+    it is centred by its rim): the one-time decisions a pattern can change."""
+    radii = [r.learned[name]["radius_px"] for r in results]
+    radii = [v for v in radii if v is not None]
+    hues = [r.learned[name]["hue_deg"] for r in results]
+    rims = [m.rim for r in results if r.state is not None
+            for m in r.state.markers if m.spec.name == name]
+    # Listed, not as a range: hues wrap round at 360°.
+    size = f"radius {', '.join(f'{v:.1f}' for v in radii)} px; " if radii else ""
+    return (f"    learned as is, then with each pattern: {size}hue "
+            f"{', '.join(f'{v:.0f}' for v in hues)}°; centred by its rim in "
+            f"{sum(bool(v) for v in rims)} of {len(results)}")
+
+
 def run(label: str, video: Path, fps: float | None, markers: list[str], seeds: int) -> None:
     """Track ``video`` as is and with ``seeds`` patterns; print a line per marker."""
     specs = parse_markers(markers)
     t0 = time.perf_counter()
-    base = track(open_frames(video, fps), specs).tracks
-    others = [track(Patterned(open_frames(video, fps), seed), specs).tracks
-              for seed in range(seeds)]
+    results = [track(open_frames(video, fps), specs)]
+    results += [track(Patterned(open_frames(video, fps), seed), specs) for seed in range(seeds)]
+    base, others = results[0].tracks, [r.tracks for r in results[1:]]
     print(f"\n{label} ({len(base)} frames, {seeds} patterns, "
           f"{time.perf_counter() - t0:.0f} s)")
     for spec in specs:
         print("  " + compare(spec.name, base, others))
+        print(learned(spec.name, results))
 
 
 def run_no_markers(video: Path, seeds: int) -> None:
