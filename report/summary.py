@@ -122,7 +122,12 @@ def write_report(run: str | os.PathLike) -> Path:
     lines = [f"# Run report: {Path(src.get('path', '?')).name}", ""]
     lines += [f"- source: `{src.get('path', '?')}` ({src.get('codec', '?')}, "
               f"{src.get('width', '?')}×{src.get('height', '?')})",
-              f"- cranktrack {info.get('cranktrack', '?')}, {info.get('created', '')}", ""]
+              f"- cranktrack {info.get('cranktrack', '?')}, {info.get('created', '')}"]
+    libraries = {k: v for k, v in info.get("libraries", {}).items() if k != "cranktrack"}
+    if libraries:
+        # Another build of these can take another blob first (environment.py).
+        lines += ["- with " + ", ".join(f"{k} {v}" for k, v in libraries.items())]
+    lines += [""]
     timing = info.get("tracking", {}).get("timing", {})
     lines += ["## Tracking", "",
               f"{len(tracks)} frames, median rate {timing.get('median_fps') or float('nan'):.3f} "

@@ -28,3 +28,6 @@ def test_a_run_records_them(tmp_path, small_h264):
     info = json.loads((run / "run.json").read_text())
     assert info["libraries"] == library_versions()
     assert info["cranktrack"] == info["libraries"]["cranktrack"]
+    report = (run / "report.md").read_text()
+    assert f"opencv {info['libraries']['opencv']}" in report
+    assert f"libavcodec {info['libraries']['libavcodec']}" in report
