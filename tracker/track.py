@@ -26,7 +26,13 @@ from ..errors import CranktrackError
 from ..tables import tracker_columns
 from .centre import Centre
 from .coverage import local_coverage
-from .marker_state import KEEP_MOTION_MISSED, REST_REACH, REST_STEP, MarkerState
+from .marker_state import (
+    KEEP_MOTION_MISSED,
+    MOVE_REACH,
+    REST_REACH,
+    REST_STEP,
+    MarkerState,
+)
 from .markers import (
     DEFAULT_MARKERS,
     Blob,
@@ -273,11 +279,14 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
         centre, seen = _likest(frame, state, hsv_cache, pred, blob, centre, seen)
     if failure:
         at_blob = Centre(blob.x, blob.y, np.nan, blob.radius, False)
-        if state.off_its_place(at_blob, pred):
+        if state.off_its_place(at_blob, pred) and np.hypot(
+                blob.x - state.history[-1][1], blob.y - state.history[-1][2]) \
+                <= MOVE_REACH * state.radius:
             # A resting marker's blob off its place whose fit failed: the first frames
             # of a set-off are blurred, and their fits fail. It marks the way a later
             # fix off the place may be taken up along (MarkerState.moved_off), as a
-            # fix refused there would; it is no fix itself.
+            # fix refused there would; it is no fix itself. Farther than a set-off
+            # is taken up from (MOVE_REACH), it would only widen the search.
             state.stray = (t, at_blob)
         return None, failure
     if state.off_its_place(centre, pred) and not state.moved_off(centre, t):
