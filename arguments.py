@@ -213,6 +213,21 @@ def _inspect_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", help="PNG to write (default: VIDEO_inspect.png beside the video)")
 
 
+def _check_command(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("check", help="track a video as is and again with invisible ±1 DN "
+                       "patterns: how far each marker's fixes move, against their σ")
+    p.add_argument("video", help="video file or folder of images")
+    p.add_argument("--marker", action="append", metavar="NAME=COLOUR[@X,Y]",
+                   help="as for `track` (default: A=green B=red C=blue)")
+    p.add_argument("--patterns", type=_positive_int, default=3, metavar="N",
+                   help="how many patterns to track it with (default: 3; each costs a track)")
+    p.add_argument("--start", type=_time_or_frame, metavar="S|Nf", help="as for `track`")
+    p.add_argument("--end", type=_time_or_frame, metavar="S|Nf", help="as for `track`")
+    p.add_argument("--roi", type=_roi, metavar="X,Y,W,H", help="as for `track`")
+    p.add_argument("--fps", type=_positive, help="frame rate of an image folder")
+    p.add_argument("--out", help="also write the table as CSV here")
+
+
 def _track_command(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("track", help="track a video into a run folder")
     p.add_argument("video", help="video file, or a folder of numbered images")
@@ -408,6 +423,7 @@ def build_parser() -> argparse.ArgumentParser:
     _thermal_id_command(sub)
     _inspect_command(sub)
     _track_command(sub)
+    _check_command(sub)
     _measure_command(sub)
     _calibrate_command(sub)
     _compare_command(sub)
@@ -416,6 +432,6 @@ def build_parser() -> argparse.ArgumentParser:
     _batch_command(sub)
     _view_command(sub)
     _demo_command(sub)
-    for name in ("synth", "track", "compare", "fit", "batch", "demo"):  # those showing progress
+    for name in ("synth", "track", "check", "compare", "fit", "batch", "demo"):  # with progress
         _add_quiet(sub.choices[name])
     return parser

@@ -255,6 +255,61 @@ def _track(args: argparse.Namespace, video: Path, out: Path):
                          on_stage=lambda stage: bar.set_description_str(f"track: {stage}"))
 
 
+def cmd_check(args: argparse.Namespace) -> int:
+    from .files import write_csv_atomic
+    from .tracker.markers import DEFAULT_MARKERS, parse_markers
+    from .tracker.reproducibility import Patterned, reproducibility
+    from .tracker.track import track
+    from .tracker.video import open_frames
+
+    specs = parse_markers(args.marker) if args.marker else DEFAULT_MARKERS
+    span, roi = _span(args.start, args.end), _roi(args.roi)
+    results = []
+    with _progress("check", total=args.patterns + 1, unit="run") as bar:
+        for seed in [None, *range(args.patterns)]:
+            source = open_frames(Path(args.video), fps=args.fps)
+            results.append(track(source if seed is None else Patterned(source, seed), specs,
+                                 span=span, roi=roi))
+            bar.update(1)
+    table = reproducibility(results[0].tracks, [r.tracks for r in results[1:]], specs)
+    frames = len(results[0].tracks)
+    print(f"{args.video}: {frames} frames tracked as is and with {args.patterns} invisible "
+          "±1 DN patterns")
+    rows = [["marker", "found as is", "with the patterns", "moved median px", "95 % px",
+             "σ median px", "moved more than σ", "jumps > 3 px"]]
+    rows += [[r.marker, str(r.found), f"{r.found_min}–{r.found_max}", f"{r.moved_median_px:.3f}",
+              f"{r.moved_p95_px:.3f}", f"{r.sigma_median_px:.3f}",
+              "-" if np.isnan(r.beyond_sigma) else f"{100 * r.beyond_sigma:.0f} %",
+              f"{r.jumps} of {r.compared}"] for r in table.itertuples()]
+    print(format_table(rows))
+    for r in table.itertuples():
+        print(_check_verdict(r))
+    if args.out:
+        print(f"wrote {write_csv_atomic(Path(args.out), table)}")
+    return 0
+
+
+def _check_verdict(r) -> str:
+    """One sentence per marker of :func:`cmd_check`'s table: what to trust."""
+    if not r.found:
+        return f"{r.marker}: not found as is; nothing to compare"
+    said = []
+    if r.found_min != r.found or r.found_max != r.found:
+        said.append(f"found in {r.found_min}–{r.found_max} frames with the patterns against "
+                    f"{r.found} as is: which blob, size or colour it takes hangs on a pixel")
+    if r.jumps:
+        said.append(f"{r.jumps} fixes moved more than 3 px: another place or object")
+    # Below a hundredth of a pixel either way is below anything a track is used for.
+    if r.compared and r.moved_median_px > max(r.sigma_median_px, 0.01):
+        said.append(f"its fixes move {r.moved_median_px:.2f} px (median) under a change no one "
+                    f"could see, more than their σ ({r.sigma_median_px:.2f} px): trust its "
+                    f"position to about {r.moved_p95_px:.2f} px, not to its σ")
+    if not said:
+        return (f"{r.marker}: the same frames, and fixes moved {r.moved_median_px:.3f} px "
+                f"(median) against a σ of {r.sigma_median_px:.3f} px: steady")
+    return f"{r.marker}: " + "; ".join(said)
+
+
 def cmd_measure(args: argparse.Namespace) -> int:
     from .calibration.known_length import parse_known_length
     from .pipeline import measure_run
@@ -717,7 +772,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
 #: What each command line runs (``calibrate`` by what it calibrates).
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "synth": cmd_synth, "thermal-id": cmd_thermal_id, "inspect": cmd_inspect,
-    "track": cmd_track, "measure": cmd_measure, "compare": cmd_compare, "fit": cmd_fit,
+    "track": cmd_track, "check": cmd_check, "measure": cmd_measure, "compare": cmd_compare,
+    "fit": cmd_fit,
     "sweep": cmd_sweep, "batch": cmd_batch, "view": cmd_view, "demo": cmd_demo,
     "calibrate camera": cmd_calibrate_camera, "calibrate plane": cmd_calibrate_plane,
     "calibrate readout": cmd_calibrate_readout,

@@ -31,10 +31,8 @@ pendulum and yupi's rover wheel) and the objects at rest of ``bench/real_clips.p
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -45,60 +43,24 @@ import real_clips
 import real_footage
 
 from cranktrack.environment import versions_line
-from cranktrack.tracker.markers import DEFAULT_MARKERS, parse_markers
+from cranktrack.tracker.markers import DEFAULT_MARKERS, MarkerSpec, parse_markers
+from cranktrack.tracker.reproducibility import JUMP_PX, Patterned, reproducibility
 from cranktrack.tracker.track import TrackResult, track
-from cranktrack.tracker.video import Frame, FrameSource, open_frames
+from cranktrack.tracker.video import open_frames
 from cranktrack.warmup import compile_kernels
-
-#: How far (px) a fix may move under the pattern before it counts as a jump.
-JUMP_PX = 3.0
-
-
-@dataclasses.dataclass
-class Patterned:
-    """A :class:`FrameSource` whose frames carry a ±1 DN pattern, fresh in each frame
-    (drawn from ``seed`` and the frame's index, so a run is repeatable)."""
-
-    source: FrameSource
-    seed: int
-
-    def __getattr__(self, name: str):
-        return getattr(self.source, name)
-
-    def frames(self, prefetch: int = 0) -> Iterator[Frame]:
-        for f in self.source.frames(prefetch):
-            rng = np.random.default_rng((self.seed, f.index))
-            pixels = f.pixels.astype(np.int16)
-            # Luminance only where the decoder's planes are kept: Y is the top 2/3.
-            rows = pixels.shape[0] * 2 // 3 if f.layout == "i420" else pixels.shape[0]
-            pixels[:rows] += rng.integers(-1, 2, size=pixels[:rows].shape, dtype=np.int16)
-            yield dataclasses.replace(f, pixels=np.clip(pixels, 0, 255).astype(np.uint8))
 
 
 def compare(name: str, base: pd.DataFrame, others: list[pd.DataFrame]) -> str:
     """One line: found, moved and jumps of marker ``name`` over the patterned runs."""
-    ok = base[f"{name}_ok"].to_numpy(bool)
-    xy = base[[f"{name}_x_px", f"{name}_y_px"]].to_numpy(float)
-    sigma = base[f"{name}_sigma_px"].to_numpy(float)
-    found, moved, beyond, jumps = [], [], [], 0
-    for tab in others:
-        ok2 = tab[f"{name}_ok"].to_numpy(bool)
-        found.append(int(ok2.sum()))
-        both = ok & ok2
-        delta = xy[both] - tab[[f"{name}_x_px", f"{name}_y_px"]].to_numpy(float)[both]
-        d = np.hypot(delta[:, 0], delta[:, 1])
-        jumps += int((d > JUMP_PX).sum())
-        # σ is per axis: the larger of the two axes' moves against it.
-        beyond.append(np.abs(delta).max(axis=1) > sigma[both])
-        moved.append(d)
-    d = np.concatenate(moved) if moved else np.array([])
-    if not len(d):
-        return f"{name}: found in {ok.sum()} frames as is, {found} with the pattern; none in both"
-    return (f"{name}: found in {ok.sum()} frames as is, {min(found)}–{max(found)} with the "
-            f"pattern; moved median {np.median(d):.3f}, 95 % {np.percentile(d, 95):.3f} px "
-            f"(σ median {np.median(sigma[ok]):.3f}); more than σ on an axis in "
-            f"{100 * np.concatenate(beyond).mean():.0f} % of fixes; jumps over {JUMP_PX:g} px: "
-            f"{jumps} of {len(d)}")
+    r = reproducibility(base, others, (MarkerSpec(name, 0.0),)).iloc[0]
+    if not r.compared:
+        found = [int(t[f"{name}_ok"].sum()) for t in others]
+        return f"{name}: found in {r.found} frames as is, {found} with the pattern; none in both"
+    return (f"{name}: found in {r.found} frames as is, {r.found_min}–{r.found_max} with the "
+            f"pattern; moved median {r.moved_median_px:.3f}, 95 % {r.moved_p95_px:.3f} px "
+            f"(σ median {r.sigma_median_px:.3f}); more than σ on an axis in "
+            f"{100 * r.beyond_sigma:.0f} % of fixes; jumps over {JUMP_PX:g} px: "
+            f"{r.jumps} of {r.compared}")
 
 
 def learned(name: str, results: list[TrackResult]) -> str:
