@@ -265,12 +265,15 @@ def cmd_check(args: argparse.Namespace) -> int:
     specs = parse_markers(args.marker) if args.marker else DEFAULT_MARKERS
     span, roi = _span(args.start, args.end), _roi(args.roi)
     results = []
-    with _progress("check", total=args.patterns + 1, unit="run") as bar:
-        for seed in [None, *range(args.patterns)]:
+    with _progress("check") as bar:
+        for k, seed in enumerate([None, *range(args.patterns)]):
             source = open_frames(Path(args.video), fps=args.fps)
+            if source.expected_frames:
+                bar.total = source.expected_frames * (args.patterns + 1)
+            bar.set_description_str("check: as is" if seed is None else
+                                    f"check: pattern {k} of {args.patterns}")
             results.append(track(source if seed is None else Patterned(source, seed), specs,
-                                 span=span, roi=roi))
-            bar.update(1)
+                                 on_frame=lambda i: bar.update(1), span=span, roi=roi))
     table = reproducibility(results[0].tracks, [r.tracks for r in results[1:]], specs)
     frames = len(results[0].tracks)
     print(f"{args.video}: {frames} frames tracked as is and with {args.patterns} invisible "
