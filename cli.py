@@ -21,7 +21,13 @@ import numpy as np
 
 from .arguments import build_parser
 from .errors import CranktrackError, RunInterrupted
-from .report.console import comparison_text, drive_errors_text, fit_text, format_table
+from .report.console import (
+    comparison_text,
+    drive_errors_text,
+    fit_text,
+    format_table,
+    reproducibility_text,
+)
 
 #: Where `cranktrack demo` writes when given no --out: under the folder it is run from.
 DEMO_FOLDER = "demo-output"
@@ -274,43 +280,12 @@ def cmd_check(args: argparse.Namespace) -> int:
                                     f"check: pattern {k} of {args.patterns}")
             results.append(track(source if seed is None else Patterned(source, seed), specs,
                                  on_frame=lambda i: bar.update(1), span=span, roi=roi))
-    table = reproducibility(results[0].tracks, [r.tracks for r in results[1:]], specs)
-    frames = len(results[0].tracks)
-    print(f"{args.video}: {frames} frames tracked as is and with {args.patterns} invisible "
-          "±1 DN patterns")
-    rows = [["marker", "found as is", "with the patterns", "moved median px", "95 % px",
-             "σ median px", "moved more than σ", "jumps > 3 px"]]
-    rows += [[r.marker, str(r.found), f"{r.found_min}–{r.found_max}", f"{r.moved_median_px:.3f}",
-              f"{r.moved_p95_px:.3f}", f"{r.sigma_median_px:.3f}",
-              "-" if np.isnan(r.beyond_sigma) else f"{100 * r.beyond_sigma:.0f} %",
-              f"{r.jumps} of {r.compared}"] for r in table.itertuples()]
-    print(format_table(rows))
-    for r in table.itertuples():
-        print(_check_verdict(r))
+    table = reproducibility(results[0].tracks, [r.tracks for r in results[1:]],
+                            [s.name for s in specs])
+    print(reproducibility_text(table, args.video, len(results[0].tracks), args.patterns))
     if args.out:
         print(f"wrote {write_csv_atomic(Path(args.out), table)}")
     return 0
-
-
-def _check_verdict(r) -> str:
-    """One sentence per marker of :func:`cmd_check`'s table: what to trust."""
-    if not r.found:
-        return f"{r.marker}: not found as is; nothing to compare"
-    said = []
-    if r.found_min != r.found or r.found_max != r.found:
-        said.append(f"found in {r.found_min}–{r.found_max} frames with the patterns against "
-                    f"{r.found} as is: which blob, size or colour it takes hangs on a pixel")
-    if r.jumps:
-        said.append(f"{r.jumps} fixes moved more than 3 px: another place or object")
-    # Below a hundredth of a pixel either way is below anything a track is used for.
-    if r.compared and r.moved_median_px > max(r.sigma_median_px, 0.01):
-        said.append(f"its fixes move {r.moved_median_px:.2f} px (median) under a change no one "
-                    f"could see, more than their σ ({r.sigma_median_px:.2f} px): trust its "
-                    f"position to about {r.moved_p95_px:.2f} px, not to its σ")
-    if not said:
-        return (f"{r.marker}: the same frames, and fixes moved {r.moved_median_px:.3f} px "
-                f"(median) against a σ of {r.sigma_median_px:.3f} px: steady")
-    return f"{r.marker}: " + "; ".join(said)
 
 
 def cmd_measure(args: argparse.Namespace) -> int:

@@ -43,7 +43,7 @@ import real_clips
 import real_footage
 
 from cranktrack.environment import versions_line
-from cranktrack.tracker.markers import DEFAULT_MARKERS, MarkerSpec, parse_markers
+from cranktrack.tracker.markers import DEFAULT_MARKERS, parse_markers
 from cranktrack.tracker.reproducibility import JUMP_PX, Patterned, reproducibility
 from cranktrack.tracker.track import TrackResult, track
 from cranktrack.tracker.video import open_frames
@@ -52,7 +52,7 @@ from cranktrack.warmup import compile_kernels
 
 def compare(name: str, base: pd.DataFrame, others: list[pd.DataFrame]) -> str:
     """One line: found, moved and jumps of marker ``name`` over the patterned runs."""
-    r = reproducibility(base, others, (MarkerSpec(name, 0.0),)).iloc[0]
+    r = reproducibility(base, others, [name]).iloc[0]
     if not r.compared:
         found = [int(t[f"{name}_ok"].sum()) for t in others]
         return f"{name}: found in {r.found} frames as is, {found} with the pattern; none in both"

@@ -5,6 +5,7 @@ Each function returns the text; :mod:`..cli` prints it (library code prints noth
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # pandas is not imported before the first frame (start-up time)
@@ -82,3 +83,39 @@ def fit_text(report: dict) -> str:
             lines.append(f"proposed missing term: {found['equation']} (θ RMSE "
                          f"{found['rmse_before_deg']:.3g}° → {found['rmse_after_deg']:.3g}°)")
     return "\n".join(lines)
+
+
+def reproducibility_text(table: pd.DataFrame, video: str, frames: int, patterns: int) -> str:
+    """``cranktrack check``'s printout of a :func:`.tracker.reproducibility.reproducibility`
+    table: a line of what was done, the table, and a sentence per marker of what to
+    trust."""
+    rows = [["marker", "found as is", "with the patterns", "moved median px", "95 % px",
+             "σ median px", "moved more than σ", "jumps > 3 px"]]
+    rows += [[r.marker, str(r.found), f"{r.found_min}–{r.found_max}", f"{r.moved_median_px:.3f}",
+              f"{r.moved_p95_px:.3f}", f"{r.sigma_median_px:.3f}",
+              "-" if math.isnan(r.beyond_sigma) else f"{100 * r.beyond_sigma:.0f} %",
+              f"{r.jumps} of {r.compared}"] for r in table.itertuples()]
+    return "\n".join([f"{video}: {frames} frames tracked as is and with {patterns} invisible "
+                      "±1 DN patterns", format_table(rows),
+                      *(_what_to_trust(r) for r in table.itertuples())])
+
+
+def _what_to_trust(r) -> str:
+    """One sentence for a row of :func:`reproducibility_text`'s table."""
+    if not r.found:
+        return f"{r.marker}: not found as is; nothing to compare"
+    said = []
+    if r.found_min != r.found or r.found_max != r.found:
+        said.append(f"found in {r.found_min}–{r.found_max} frames with the patterns against "
+                    f"{r.found} as is: which blob, size or colour it takes hangs on a pixel")
+    if r.jumps:
+        said.append(f"{r.jumps} fixes moved more than 3 px: another place or object")
+    # Below a hundredth of a pixel either way is below anything a track is used for.
+    if r.compared and r.moved_median_px > max(r.sigma_median_px, 0.01):
+        said.append(f"its fixes move {r.moved_median_px:.2f} px (median) under a change no one "
+                    f"could see, more than their σ ({r.sigma_median_px:.2f} px): trust its "
+                    f"position to about {r.moved_p95_px:.2f} px, not to its σ")
+    if not said:
+        return (f"{r.marker}: the same frames, and fixes moved {r.moved_median_px:.3f} px "
+                f"(median) against a σ of {r.sigma_median_px:.3f} px: steady")
+    return f"{r.marker}: " + "; ".join(said)

@@ -5,7 +5,6 @@ each marker's fixes move against their σ. The expected figures are built by han
 import numpy as np
 import pandas as pd
 
-from cranktrack.tracker.markers import MarkerSpec
 from cranktrack.tracker.reproducibility import Patterned, reproducibility
 from cranktrack.tracker.video import open_frames
 
@@ -19,7 +18,7 @@ def test_moves_found_counts_and_jumps_are_those_built_in():
     base = _table([10.0, 11.0, 12.0, 13.0], [True, True, True, True])
     # Moved by 0.05 px (within σ), 0.3 px (beyond), and 5 px (a jump); one frame lost.
     other = _table([10.05, 11.3, 17.0, 13.0], [True, True, True, False])
-    r = reproducibility(base, [other], (MarkerSpec("m", 0.0),)).iloc[0]
+    r = reproducibility(base, [other], ["m"]).iloc[0]
     assert (r.found, r.found_min, r.found_max, r.compared, r.jumps) == (4, 3, 3, 3, 1)
     assert np.isclose(r.moved_median_px, 0.3) and np.isclose(r.beyond_sigma, 2 / 3)
     assert np.isclose(r.sigma_median_px, 0.1)

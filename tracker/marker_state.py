@@ -488,12 +488,28 @@ class MarkerState:
         k = (t - t0) / (t0 - tr)
         return x0 + k * (x0 - xr), y0 + k * (y0 - yr)
 
+    def from_place(self, x: float, y: float) -> float:
+        """How far (x, y) px lies from the marker's last fix (its place, at rest), px."""
+        return math.hypot(x - self.history[-1][1], y - self.history[-1][2])
+
+    def mark_way(self, t: float, at: Centre, pred: tuple[float, float] | None) -> None:
+        """A blob of the resting marker at ``at`` (at ``t`` s) whose fit failed: where it
+        lies off the marker's place (:meth:`off_its_place`) but within the
+        :data:`MOVE_REACH` a set-off is taken up from, it marks the way a later fix may
+        be taken up along (:meth:`moved_off`), as a refused fix would. The first frames
+        of a set-off are blurred, and their fits fail (yupi's rover LED under an
+        invisible pattern: lost for its whole turn without this). It is no fix itself
+        (``at.ok`` is False, so :attr:`taken_up` is not written back); farther off it
+        would only widen the search."""
+        if self.off_its_place(at, pred) and \
+                self.from_place(at.x, at.y) <= MOVE_REACH * self.radius:
+            self.stray = (t, at)
+
     def stray_step(self) -> float:
         """How far the fix last refused off the marker's place lies from it, px."""
         if self.stray is None or not self.history:
             return 0.0
-        return math.hypot(self.stray[1].x - self.history[-1][1],
-                          self.stray[1].y - self.history[-1][2])
+        return self.from_place(self.stray[1].x, self.stray[1].y)
 
     def motion_px(self) -> float:
         """How far the marker may be from its prediction for its motion, px: the last

@@ -14,12 +14,11 @@ size for it (bench/README.md, stop 48).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 
 import numpy as np
 import pandas as pd
 
-from .markers import MarkerSpec
 from .video import Frame, FrameSource
 
 #: How far (px) a fix may move under the pattern before it counts as a jump: another
@@ -49,16 +48,15 @@ class Patterned:
 
 
 def reproducibility(base: pd.DataFrame, others: list[pd.DataFrame],
-                    specs: tuple[MarkerSpec, ...]) -> pd.DataFrame:
-    """Per marker of ``specs``, a tracks table ``base`` (as is) against the same clip
+                    names: Sequence[str]) -> pd.DataFrame:
+    """Per marker named in ``names``, a tracks table ``base`` (as is) against the same clip
     tracked with patterns (``others``): ``found`` (frames, as is), ``found_min`` and
     ``found_max`` (with the patterns), over the fixes found both times ``moved_median_px``
     and ``moved_p95_px`` (2-D), ``sigma_median_px`` (the per-axis σ given as is),
     ``beyond_sigma`` (share of those fixes moved by more than σ on an axis), ``jumps``
     (moved more than :data:`JUMP_PX`) and ``compared`` (fixes found both times)."""
     rows = []
-    for spec in specs:
-        name = spec.name
+    for name in names:
         ok = base[f"{name}_ok"].to_numpy(bool)
         xy = base[[f"{name}_x_px", f"{name}_y_px"]].to_numpy(float)
         sigma = base[f"{name}_sigma_px"].to_numpy(float)

@@ -26,13 +26,7 @@ from ..errors import CranktrackError
 from ..tables import tracker_columns
 from .centre import Centre
 from .coverage import local_coverage
-from .marker_state import (
-    KEEP_MOTION_MISSED,
-    MOVE_REACH,
-    REST_REACH,
-    REST_STEP,
-    MarkerState,
-)
+from .marker_state import KEEP_MOTION_MISSED, REST_REACH, REST_STEP, MarkerState
 from .markers import (
     DEFAULT_MARKERS,
     Blob,
@@ -278,16 +272,7 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
     elif not failure and whole_frame and len(state.history) == 1 and state.radius:
         centre, seen = _likest(frame, state, hsv_cache, pred, blob, centre, seen)
     if failure:
-        at_blob = Centre(blob.x, blob.y, np.nan, blob.radius, False)
-        if state.off_its_place(at_blob, pred) and np.hypot(
-                blob.x - state.history[-1][1], blob.y - state.history[-1][2]) \
-                <= MOVE_REACH * state.radius:
-            # A resting marker's blob off its place whose fit failed: the first frames
-            # of a set-off are blurred, and their fits fail. It marks the way a later
-            # fix off the place may be taken up along (MarkerState.moved_off), as a
-            # fix refused there would; it is no fix itself. Farther than a set-off
-            # is taken up from (MOVE_REACH), it would only widen the search.
-            state.stray = (t, at_blob)
+        state.mark_way(t, Centre(blob.x, blob.y, np.nan, blob.radius, False), pred)
         return None, failure
     if state.off_its_place(centre, pred) and not state.moved_off(centre, t):
         return None, "rejected"  # a neighbour of its colour, not a marker at rest
@@ -440,8 +425,8 @@ def _or_held(frame: Frame, state: MarkerState, blob: Blob,
     r = state.radius
     if result[2] != "refine_failed" or state.learning or not _may_hold(state) \
             or state.missed > KEEP_MOTION_MISSED or not _clear_of_edge(frame, r, blob.x, blob.y) \
-            or (state.resting and state.history and np.hypot(
-                blob.x - state.history[-1][1], blob.y - state.history[-1][2]) > REST_REACH * r):
+            or (state.resting and state.history
+                and state.from_place(blob.x, blob.y) > REST_REACH * r):
         return result
     held = _held_at(frame, state, (blob.x, blob.y), r, bool(state.spec.tone))
     if held is None or _whole_and_honest(state, *held)[2]:
