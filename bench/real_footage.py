@@ -733,6 +733,23 @@ def at_rest_line(name: str, xy: NDArray, sigma: NDArray) -> str:
             f"{100 * np.mean(np.abs(d) <= sigma[:, None]):.0f} % (aim 50–90 %)")
 
 
+def rest_second_method(video: Path, pivot: NDArray, frames: NDArray) -> str:
+    """Whether the pivot's wander at rest is in the pictures: a redness centroid (within
+    20 px of its median fix, 10 DN above green and blue), which shares nothing with the
+    tracker's fits, against our fixes in ``frames`` (indices)."""
+    if len(frames) < 10:
+        return "the pivot at rest: too few fixes for a second method"
+    ours = pivot[frames] - np.median(pivot[frames], axis=0)
+    place = np.median(pivot[frames], axis=0)
+    theirs = colour_centroids(video, frames, np.tile(place, (len(frames), 1)), 0, 10.0, 20)
+    theirs -= np.median(theirs, axis=0)
+    spread = 1.4826 * np.median(np.abs(theirs), axis=0)
+    corr = [np.corrcoef(ours[:, i], theirs[:, i])[0, 1] for i in (0, 1)]
+    return (f"the pivot at rest by a redness centroid: scatter (MAD) x {spread[0]:.3f}, "
+            f"y {spread[1]:.3f} px; correlation with our fixes x {corr[0]:+.2f}, "
+            f"y {corr[1]:+.2f} (near +1: the wander is in the pictures, not our fit's)")
+
+
 #: The arm's crank length for `--known-length A-B=` (mm): a guess, which sets the mm of
 #: the rover's run but not its angles or their rates.
 ARM_MM = 66.0
@@ -817,6 +834,7 @@ def run_rover(repo: Path, yupi_python: Path | None) -> None:
     print("  at rest, " + at_rest_line("LED", xy[rest & ok], sigma[rest & ok]))
     print("  at rest, " + at_rest_line("pivot", pivot[rest & pivot_ok],
                                        tab["pivot_sigma_px"].to_numpy(float)[rest & pivot_ok]))
+    print("  " + rest_second_method(video, pivot, np.flatnonzero(rest & pivot_ok)))
     still = body_still_until(video, np.median(pivot[rest & pivot_ok], axis=0), off, last)
     turn = ~rest & ok & (np.arange(len(tab)) <= still)
     if turn.sum() < 6:
