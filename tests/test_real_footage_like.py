@@ -468,6 +468,35 @@ def test_an_out_of_focus_disc_is_fitted_with_its_fading_edge_in_the_window():
     assert abs(gain - 1.0) < 0.1 and abs(offset) < 0.05, (gain, offset)
 
 
+def test_an_out_of_focus_disc_is_not_taken_for_a_shaded_ball_and_a_lit_sphere_is():
+    # Seen first at a core blob of 3.5 px, yupi's rover pivot (a red disc out of focus)
+    # was held by its rim at 9.3 px; over half that its coverage spread by 0.18 and
+    # the pivot was taken for a ball, centred by its rim for good and 0.9 px off the
+    # runs that fitted its disc. A ball lit from one side leans; a blurred disc not.
+    from scipy.ndimage import gaussian_filter
+
+    from cranktrack.tracker.coverage import local_coverage
+    from cranktrack.tracker.outline import shaded
+    from cranktrack.tracker.refine import patch_around
+
+    x, y, red = 60.3, 50.6, (200.0, 40.0, 50.0)
+    judged = {}
+    # (disc radius, blur, radius it is seen at), px: each spreads by 0.15-0.19.
+    for radius, blur, seen_at in ((11.0, 5.0, 13.0), (13.0, 8.0, 9.3)):
+        sharp = draw([(x, y, radius, red)], background=(90.0, 95.0, 90.0), size=(120, 100),
+                     noise_dn=0.0).astype(float)
+        soft = gaussian_filter(sharp, sigma=(blur, blur, 0.0))
+        soft += np.random.default_rng(1).normal(0.0, 1.5, soft.shape)
+        sphere = draw_atom(x, y, radius, 100.0, size=(120, 100), colour=red)
+        for name, image in (("soft disc", np.clip(soft.round(), 0, 255).astype(np.uint8)),
+                            ("lit sphere", sphere)):
+            patch, x0, y0 = patch_around(image, x, y, seen_at + 9)
+            alpha, _ = local_coverage(patch, x0, y0, (x, y), seen_at)
+            judged[name, radius] = shaded(alpha, x0, y0, (x, y), seen_at)
+    assert judged == {("soft disc", 11.0): False, ("lit sphere", 11.0): True,
+                      ("soft disc", 13.0): False, ("lit sphere", 13.0): True}, judged
+
+
 def draw_strips(strips: list[tuple[float, float]], size=(160, 120), w=8.0, h=3.5, seed=0
                 ) -> np.ndarray:
     """RGB uint8: white strips of tape (``w``×``h`` px) centred at ``strips`` (x, y px),
