@@ -262,7 +262,7 @@ def _track(args: argparse.Namespace, video: Path, out: Path):
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from .files import write_csv_atomic
+    from .files import ensure_dir, write_csv_atomic
     from .tracker.markers import DEFAULT_MARKERS, parse_markers
     from .tracker.reproducibility import Patterned, reproducibility
     from .tracker.track import track
@@ -270,6 +270,8 @@ def cmd_check(args: argparse.Namespace) -> int:
 
     specs = parse_markers(args.marker) if args.marker else DEFAULT_MARKERS
     span, roi = _span(args.start, args.end), _roi(args.roi)
+    if args.out:
+        ensure_dir(Path(args.out).parent)  # said before minutes of tracking, not after
     results = []
     with _progress("check") as bar:
         for k, seed in enumerate([None, *range(args.patterns)]):

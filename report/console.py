@@ -91,7 +91,8 @@ def reproducibility_text(table: pd.DataFrame, video: str, frames: int, patterns:
     trust."""
     rows = [["marker", "found as is", "with the patterns", "moved median px", "95 % px",
              "σ median px", "moved more than σ", "jumps > 3 px"]]
-    rows += [[r.marker, str(r.found), f"{r.found_min}–{r.found_max}", f"{r.moved_median_px:.3f}",
+    rows += [[r.marker, str(r.found), _span_of(r.found_min, r.found_max),
+              f"{r.moved_median_px:.3f}",
               f"{r.moved_p95_px:.3f}", f"{r.sigma_median_px:.3f}",
               "-" if math.isnan(r.beyond_sigma) else f"{100 * r.beyond_sigma:.0f} %",
               f"{r.jumps} of {r.compared}"] for r in table.itertuples()]
@@ -100,16 +101,23 @@ def reproducibility_text(table: pd.DataFrame, video: str, frames: int, patterns:
                       *(_what_to_trust(r) for r in table.itertuples())])
 
 
+def _span_of(low: int, high: int) -> str:
+    """``low–high``, or one number where they are the same."""
+    return str(low) if low == high else f"{low}–{high}"
+
+
 def _what_to_trust(r) -> str:
     """One sentence for a row of :func:`reproducibility_text`'s table."""
     if not r.found:
         return f"{r.marker}: not found as is; nothing to compare"
     said = []
     if r.found_min != r.found or r.found_max != r.found:
-        said.append(f"found in {r.found_min}–{r.found_max} frames with the patterns against "
-                    f"{r.found} as is: which blob, size or colour it takes hangs on a pixel")
+        said.append(f"found in {_span_of(r.found_min, r.found_max)} frames with the patterns "
+                    f"against {r.found} as is: which blob, size or colour it takes hangs on a "
+                    "pixel")
     if r.jumps:
-        said.append(f"{r.jumps} fixes moved more than 3 px: another place or object")
+        said.append(f"{r.jumps} {'fix' if r.jumps == 1 else 'fixes'} moved more than 3 px: "
+                    "another place or object")
     # Below a hundredth of a pixel either way is below anything a track is used for.
     if r.compared and r.moved_median_px > max(r.sigma_median_px, 0.01):
         said.append(f"its fixes move {r.moved_median_px:.2f} px (median) under a change no one "

@@ -22,6 +22,10 @@ def test_moves_found_counts_and_jumps_are_those_built_in():
     assert (r.found, r.found_min, r.found_max, r.compared, r.jumps) == (4, 3, 3, 3, 1)
     assert np.isclose(r.moved_median_px, 0.3) and np.isclose(r.beyond_sigma, 2 / 3)
     assert np.isclose(r.sigma_median_px, 0.1)
+    from cranktrack.report.console import reproducibility_text
+
+    said = reproducibility_text(reproducibility(base, [other], ["m"]), "clip.mp4", 4, 1)
+    assert "1 fix moved more than 3 px" in said and "found in 3 frames with the patterns against 4" in said, said
 
 
 def test_a_pattern_is_invisible_and_repeatable(tmp_path):
@@ -51,7 +55,7 @@ def test_check_prints_a_line_per_marker_and_writes_the_table(tmp_path, capsys):
         image += np.random.default_rng(k).normal(0, 2.0, image.shape)
         image = np.clip(image.round(), 0, 255).astype(np.uint8)
         cv2.imwrite(str(frames / f"{k:03d}.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
-    out = tmp_path / "check.csv"
+    out = tmp_path / "new" / "check.csv"  # a folder not made yet is made
     assert main(["check", str(frames), "--fps", "10", "--marker", "b=red", "--patterns", "2",
                  "--out", str(out)]) == 0
     text = capsys.readouterr().out
@@ -62,3 +66,8 @@ def test_check_prints_a_line_per_marker_and_writes_the_table(tmp_path, capsys):
     # A clip that is not there: one sentence, no traceback.
     assert main(["check", str(tmp_path / "none.mp4")]) == 1
     assert "does not exist" in capsys.readouterr().err
+    # A table that cannot be written is said before the clip is tracked.
+    assert main(["check", str(frames), "--fps", "10", "--marker", "b=red",
+                 "--out", str(out / "under_a_file.csv")]) == 1
+    captured = capsys.readouterr()
+    assert "is not a folder" in captured.err and "b " not in captured.out
