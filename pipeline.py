@@ -427,10 +427,13 @@ def _measure_into(folder: Path, tracks: pd.DataFrame, hues: dict[str, float | No
     never = [n for n in names if not tracks[f"{n}_ok"].astype(bool).any()]
     if never:
         hue = hues[never[0]]
+        # A warning may already say why (refused as shaded, never near its place).
+        said = any(p.startswith(f"marker {never[0]}") for p in problems)
         raise CranktrackError(
             f"marker {never[0]}{'' if hue is None else f' (hue {hue:g}°)'} was not found in "
             f"any frame, so there are no kinematics; {folder / TRACKS} has what was found; "
-            "check the marker's colour (--marker NAME=COLOUR)", problems)
+            + ("see the warning about it above" if said
+               else "check the marker's colour (--marker NAME=COLOUR)"), problems)
     # The plane's x axis runs from A to C; a run without C keeps the image's x direction.
     axis_to = "C" if "C" in names else None
     if calibration is not None:

@@ -168,21 +168,22 @@ def draw(background: NDArray[np.float32], theta_deg: float, wire: bool = True
 
 
 def frame(background: NDArray[np.float32], heating: Heating, t: float, exposure_s: float,
-          rng: np.random.Generator, wire: bool = True) -> NDArray[np.uint8]:
+          rng: np.random.Generator, wire: bool = True, lens_blur_px: float = LENS_BLUR_PX
+          ) -> NDArray[np.uint8]:
     """The camera's picture at frame time ``t`` (s): the exposure's average, the lens's
-    blur, down to frame pixels, sensor noise, 8 bits."""
+    blur (σ ``lens_blur_px``, frame px), down to frame pixels, sensor noise, 8 bits."""
     times = [t] if exposure_s <= 0 else t + exposure_s * (
         (np.arange(EXPOSURE_SAMPLES) + 0.5) / EXPOSURE_SAMPLES - 0.5)
     theta, _ = heating.theta(np.asarray(times))
     acc = sum(draw(background, th, wire) for th in theta) / len(theta)
-    acc = cv2.GaussianBlur(acc, (0, 0), LENS_BLUR_PX * SUPERSAMPLE)
+    acc = cv2.GaussianBlur(acc, (0, 0), lens_blur_px * SUPERSAMPLE)
     small = cv2.resize(acc, SIZE, interpolation=cv2.INTER_AREA)
     small = small + rng.normal(0, NOISE_DN, small.shape)
     return np.clip(np.round(small), 0, 255).astype(np.uint8)
 
 
 def render(path: Path, heating: Heating, seconds: float, fps: float, exposure_s: float,
-           seed: int, wire: bool = True) -> None:
+           seed: int, wire: bool = True, lens_blur_px: float = LENS_BLUR_PX) -> None:
     """The clip as H.264 4:2:0 (crf 20) at ``path``."""
     rng = np.random.default_rng(seed)
     background = board(np.random.default_rng(1000 + seed))
@@ -195,7 +196,8 @@ def render(path: Path, heating: Heating, seconds: float, fps: float, exposure_s:
         stream.options = {"crf": "20", "preset": "fast", "x264-params": "mbtree=0"}
         for k in range(round(seconds * fps)):
             picture = av.VideoFrame.from_ndarray(
-                frame(background, heating, k / fps, exposure_s, rng, wire), format="rgb24")
+                frame(background, heating, k / fps, exposure_s, rng, wire, lens_blur_px),
+                format="rgb24")
             for packet in stream.encode(picture):
                 out.mux(packet)
         for packet in stream.encode():
@@ -218,14 +220,16 @@ CASES = (
 
 
 def measure(case: Case, seed: int, folder: Path, seconds: float, fps: float,
-            wire: bool = True) -> dict[str, float]:
+            wire: bool = True, lens_blur_px: float = LENS_BLUR_PX) -> dict[str, float]:
     """Render, track with ``cranktrack`` (A–C = L1 as the known length), compare."""
-    video = folder / f"sma_apart_{seed}{'' if wire else '_nowire'}.mp4"
+    tag = ("" if wire else "_nowire") + (
+        "" if lens_blur_px == LENS_BLUR_PX else f"_blur{lens_blur_px:g}")
+    video = folder / f"sma_apart_{seed}{tag}.mp4"
     if not video.exists():
         # A render kept by --keep is used again: the writer is deterministic
         # (tests/test_video.py), so the same case and seed give the same clip.
-        render(video, case.heating, seconds, fps, case.exposure_s, seed, wire)
-    runs = folder / f"run_{seed}{'' if wire else '_nowire'}"
+        render(video, case.heating, seconds, fps, case.exposure_s, seed, wire, lens_blur_px)
+    runs = folder / f"run_{seed}{tag}"
     shutil.rmtree(runs, ignore_errors=True)
     run = track_run(video, runs, ("A", "C", L1_MM))
     tracks, kin = run.tracks, run.kinematics
@@ -279,13 +283,17 @@ def main(argv: list[str] | None = None) -> None:
                              "there are used again")
     parser.add_argument("--no-wire", action="store_true",
                         help="draw no SMA wire: what is left is the bar's and the codec's")
+    parser.add_argument("--lens-blur", type=float, default=LENS_BLUR_PX,
+                        help=f"the lens's blur, σ in frame px (default {LENS_BLUR_PX}; "
+                             "3–5 is a camera out of focus)")
     args = parser.parse_args(argv)
     print(f"libraries: {versions_line()}")
     cases = [CASES[i] for i in args.case] if args.case else list(CASES)
     print(f"SMA bed, second renderer: {SIZE[0]}×{SIZE[1]}, {args.fps:g} fps, {args.seconds:g} s, "
           f"{PX_PER_MM} px/mm, markers {MARKER_MM:g} mm ({MARKER_MM * PX_PER_MM / 2:.1f} px "
           f"radius), noise {NOISE_DN} DN, H.264 crf 20; {args.seeds} seeds per case"
-          + ("; no wire drawn" if args.no_wire else ""))
+          + ("; no wire drawn" if args.no_wire else "")
+          + (f"; lens blur {args.lens_blur:g} px" if args.lens_blur != LENS_BLUR_PX else ""))
     for case in cases:
         rows = []
         for seed in range(args.seeds):
@@ -295,7 +303,7 @@ def main(argv: list[str] | None = None) -> None:
                 where.mkdir(parents=True, exist_ok=True)
                 try:
                     rows.append(measure(case, seed, where, args.seconds, args.fps,
-                                        not args.no_wire))
+                                        not args.no_wire, args.lens_blur))
                 except CranktrackError as e:
                     print(f"\n{case.name}, seed {seed}: cranktrack refused: {e}")
         if not rows:

@@ -136,6 +136,15 @@ def _repeats_picture(history: list[tuple[float, float, float]]) -> bool:
     return even and steady and before >= STALL_STEP_PX and here <= STAIR_RATIO * before
 
 
+#: A printed disc's fitted edge this wide (px) or wider is out of focus. In focus on
+#: H.264 4:2:0 the crank-slider's discs fit at 1.0–1.5 px (the SMA bed of
+#: bench/sma_bed_apart.py with its lens's blur of 0.6 px: 1.02–1.51); blurred by 1.5 px,
+#: 1.8–1.9 and θ still within its σ; by 2 px, 1.9–2.4 and B refused in every frame.
+OUT_OF_FOCUS_EDGE_PX = 2.0
+#: How many of a marker's last disc fits its edge width is the median of.
+EDGES_KEPT = 51
+
+
 @dataclass
 class MarkerState:
     """What the tracker remembers of one marker from frame to frame: what it looks
@@ -196,6 +205,11 @@ class MarkerState:
     placed_failed: Blob | None = None
     #: Frames in which the marker was found while learning its size.
     learning_frames: list[int] = field(default_factory=list)
+    #: Edge widths of its last :data:`EDGES_KEPT` disc fits (the model's Gaussian blur),
+    #: px: how sharp it is (:func:`focus_notes`).
+    edges_seen: list[float] = field(default_factory=list)
+    #: Frames whose blob of its colour, a printed disc's, was refused as shaded.
+    refused_shaded: int = 0
     #: After a false start: its frames and radius (px), to be judged at the next find.
     false_start: tuple[list[int], float] | None = None
 
@@ -268,6 +282,12 @@ class MarkerState:
                 f" {d:.0f} px off, and a place is taken within the blob's diameter + 8 px. "
                 f"If that is the marker, say --marker {self.spec.name}="
                 f"{self.spec.tone or f'{self.spec.hue_deg:g}'}@{x:.0f},{y:.0f}")
+
+    @property
+    def edge_px(self) -> float | None:
+        """Its disc fits' usual edge width, px: the median of the last
+        :data:`EDGES_KEPT` (a first fit from scratch may stop short of it)."""
+        return float(np.median(self.edges_seen)) if self.edges_seen else None
 
     @property
     def area(self) -> float | None:
@@ -353,6 +373,8 @@ class MarkerState:
         if np.isfinite(centre.peak):
             self.peak = (centre.peak if self.peak is None
                          else 0.9 * self.peak + 0.1 * centre.peak)
+        if centre.params is not None and not centre.rim and np.isfinite(centre.params[3]):
+            self.edges_seen = [*self.edges_seen[-(EDGES_KEPT - 1):], float(centre.params[3])]
         self.shape = centre.params
         if seen is not None:
             self.marker = seen if self.marker is None else 0.9 * self.marker + 0.1 * seen
@@ -525,3 +547,32 @@ class MarkerState:
             return 0.0
         (_, x0, y0), (_, x1, y1) = self.history[-2:]
         return float(np.hypot(x1 - x0, y1 - y0))
+
+
+def focus_notes(states: list[MarkerState], found: dict[str, float]) -> list[str]:
+    """What the user should hear of the crank-slider's printed discs if they look out of
+    focus: found in half the frames or more (``found``: fraction of frames, by name) with
+    their fitted edges blurred over :data:`OUT_OF_FOCUS_EDGE_PX` or more, or, never
+    found, a blob of their colour refused as shaded."""
+    flat = [st for st in states if st.spec.flat]
+    # Found in half the frames or more: a patch of a disc's colour taken for it now and
+    # then on a clip with no markers (a door on OpenCV's vtest.avi) is no disc to judge.
+    soft = [st for st in flat if found.get(st.spec.name, 0.0) >= 0.5
+            and st.edge_px is not None and st.edge_px >= OUT_OF_FOCUS_EDGE_PX]
+    notes = []
+    if soft:
+        names = ", ".join(st.spec.name for st in soft)
+        edges = ", ".join(f"{st.edge_px:.1f}" for st in soft)
+        notes.append(
+            f"marker{'s' if len(soft) > 1 else ''} {names} look{'' if len(soft) > 1 else 's'} "
+            f"out of focus: edges blurred over {edges} px (1.0-1.5 in focus on H.264). On a "
+            "second renderer's SMA bed blurred so, θ was off by 0.5-0.8° against a σ of "
+            "0.1-0.2°, and B was lost in many frames (bench/README.md, stop 49); focus the "
+            "camera on the markers")
+    for st in flat:
+        if found.get(st.spec.name, 0.0) == 0 and st.refused_shaded:
+            notes.append(
+                f"marker {st.spec.name}: a blob of its colour was refused in "
+                f"{st.refused_shaded} frames, its coverage uneven across its middle (a "
+                "shaded ball's, or a disc out of focus with the wire across it)")
+    return notes

@@ -26,7 +26,7 @@ from ..errors import CranktrackError
 from ..tables import tracker_columns
 from .centre import Centre
 from .coverage import local_coverage
-from .marker_state import KEEP_MOTION_MISSED, REST_REACH, REST_STEP, MarkerState
+from .marker_state import KEEP_MOTION_MISSED, REST_REACH, REST_STEP, MarkerState, focus_notes
 from .markers import (
     DEFAULT_MARKERS,
     Blob,
@@ -383,6 +383,7 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
             # blob of its colour (a sleeve, a sign) is something else, and its disc
             # fit would be pulled toward the light by pixels with a small σ.
             if ball:
+                state.refused_shaded += 1
                 return None, None, "rejected"
             if centre.params is None:
                 # No disc fitted, only the blob's centroid (refine's fallback for an
@@ -923,10 +924,12 @@ def track(
     found = {s.name: float(tracks[s.name + "_ok"].mean()) for s in specs}
     learned = {st.spec.name: {"hue_deg": round(st.spec.hue_deg, 2),
                               "hue_tol_deg": round(st.spec.hue_tol_deg, 2),
-                              "radius_px": None if st.radius is None else round(st.radius, 3)}
+                              "radius_px": None if st.radius is None else round(st.radius, 3),
+                              "edge_px": None if st.edge_px is None else round(st.edge_px, 3)}
                for st in state.markers}
     notes = [n for st in state.markers for n in st.notes] + stair_notes(tracks, specs)
     notes += [note for st in state.markers if found[st.spec.name] == 0
               and (note := st.never_found_note())]
+    notes += focus_notes(state.markers, found)
     return TrackResult(tracks, timing_report(tracks["t_s"].to_numpy(), source.nominal_fps),
                        found, list(source.problems) + notes, learned, state)
