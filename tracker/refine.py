@@ -131,8 +131,9 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
         fit = fit_disc(alpha, x0, y0, guess, radius, init=fit.params, tol_px=tol,
                        hold_shape=hold)
     if fit.ok and not hold and not wire:
-        # (Not for the crank-slider's printed discs, filmed in focus: on clips with no
-        # markers, soft patches of their colours were then taken for them more often.)
+        # Not for the crank-slider's printed discs: on clips with no markers, soft patches
+        # of their colours were then taken for them more often, and on its bed filmed out
+        # of focus θ stayed off by 0.46° (bench/README.md, stop 49; the run says so).
         fit, alpha, patch, x0, y0, radius = _soft_refit(image, fit, alpha, patch, x0, y0,
                                                         radius,
                                                         seen if marker is None else marker,
