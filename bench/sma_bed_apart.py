@@ -167,24 +167,40 @@ def draw(background: NDArray[np.float32], theta_deg: float, wire: bool = True
     return img
 
 
+@dataclass(frozen=True)
+class Camera:
+    """What the camera does to the picture: its lens's blur (σ, frame px), its sensor's
+    noise (σ, DN) and its H.264 quality (crf)."""
+
+    lens_blur_px: float = LENS_BLUR_PX
+    noise_dn: float = NOISE_DN
+    crf: int = 20
+
+    def tag(self) -> str:
+        """A file-name suffix for a camera other than the default one."""
+        return "".join(f"_{k}{v:g}" for k, v, d in (
+            ("blur", self.lens_blur_px, LENS_BLUR_PX), ("noise", self.noise_dn, NOISE_DN),
+            ("crf", self.crf, 20)) if v != d)
+
+
 def frame(background: NDArray[np.float32], heating: Heating, t: float, exposure_s: float,
-          rng: np.random.Generator, wire: bool = True, lens_blur_px: float = LENS_BLUR_PX
+          rng: np.random.Generator, wire: bool = True, camera: Camera = Camera()
           ) -> NDArray[np.uint8]:
     """The camera's picture at frame time ``t`` (s): the exposure's average, the lens's
-    blur (σ ``lens_blur_px``, frame px), down to frame pixels, sensor noise, 8 bits."""
+    blur, down to frame pixels, sensor noise, 8 bits."""
     times = [t] if exposure_s <= 0 else t + exposure_s * (
         (np.arange(EXPOSURE_SAMPLES) + 0.5) / EXPOSURE_SAMPLES - 0.5)
     theta, _ = heating.theta(np.asarray(times))
     acc = sum(draw(background, th, wire) for th in theta) / len(theta)
-    acc = cv2.GaussianBlur(acc, (0, 0), lens_blur_px * SUPERSAMPLE)
+    acc = cv2.GaussianBlur(acc, (0, 0), camera.lens_blur_px * SUPERSAMPLE)
     small = cv2.resize(acc, SIZE, interpolation=cv2.INTER_AREA)
-    small = small + rng.normal(0, NOISE_DN, small.shape)
+    small = small + rng.normal(0, camera.noise_dn, small.shape)
     return np.clip(np.round(small), 0, 255).astype(np.uint8)
 
 
 def render(path: Path, heating: Heating, seconds: float, fps: float, exposure_s: float,
-           seed: int, wire: bool = True, lens_blur_px: float = LENS_BLUR_PX) -> None:
-    """The clip as H.264 4:2:0 (crf 20) at ``path``."""
+           seed: int, wire: bool = True, camera: Camera = Camera()) -> None:
+    """The clip as H.264 4:2:0 (``camera.crf``) at ``path``."""
     rng = np.random.default_rng(seed)
     background = board(np.random.default_rng(1000 + seed))
     with av.open(str(path), mode="w") as out:
@@ -193,10 +209,11 @@ def render(path: Path, heating: Heating, seconds: float, fps: float, exposure_s:
         stream.pix_fmt = "yuv420p"
         # mbtree=0: with macroblock-tree rate control libx264 coded the same frames
         # differently from run to run, and no seed made a render again.
-        stream.options = {"crf": "20", "preset": "fast", "x264-params": "mbtree=0"}
+        stream.options = {"crf": str(camera.crf), "preset": "fast",
+                          "x264-params": "mbtree=0"}
         for k in range(round(seconds * fps)):
             picture = av.VideoFrame.from_ndarray(
-                frame(background, heating, k / fps, exposure_s, rng, wire, lens_blur_px),
+                frame(background, heating, k / fps, exposure_s, rng, wire, camera),
                 format="rgb24")
             for packet in stream.encode(picture):
                 out.mux(packet)
@@ -220,15 +237,14 @@ CASES = (
 
 
 def measure(case: Case, seed: int, folder: Path, seconds: float, fps: float,
-            wire: bool = True, lens_blur_px: float = LENS_BLUR_PX) -> dict[str, float]:
+            wire: bool = True, camera: Camera = Camera()) -> dict[str, float]:
     """Render, track with ``cranktrack`` (A–C = L1 as the known length), compare."""
-    tag = ("" if wire else "_nowire") + (
-        "" if lens_blur_px == LENS_BLUR_PX else f"_blur{lens_blur_px:g}")
+    tag = ("" if wire else "_nowire") + camera.tag()
     video = folder / f"sma_apart_{seed}{tag}.mp4"
     if not video.exists():
         # A render kept by --keep is used again: the writer is deterministic
         # (tests/test_video.py), so the same case and seed give the same clip.
-        render(video, case.heating, seconds, fps, case.exposure_s, seed, wire, lens_blur_px)
+        render(video, case.heating, seconds, fps, case.exposure_s, seed, wire, camera)
     runs = folder / f"run_{seed}{tag}"
     shutil.rmtree(runs, ignore_errors=True)
     run = track_run(video, runs, ("A", "C", L1_MM))
@@ -285,15 +301,23 @@ def main(argv: list[str] | None = None) -> None:
                         help="draw no SMA wire: what is left is the bar's and the codec's")
     parser.add_argument("--lens-blur", type=float, default=LENS_BLUR_PX,
                         help=f"the lens's blur, σ in frame px (default {LENS_BLUR_PX}; "
-                             "3–5 is a camera out of focus)")
+                             "2 or more is a camera out of focus)")
+    parser.add_argument("--noise", type=float, default=NOISE_DN,
+                        help=f"the sensor's noise, σ in DN (default {NOISE_DN})")
+    parser.add_argument("--crf", type=int, default=20,
+                        help="H.264's quality: 18 is near lossless, 28 a phone's, 35 poor "
+                             "(default 20)")
     args = parser.parse_args(argv)
     print(f"libraries: {versions_line()}")
     cases = [CASES[i] for i in args.case] if args.case else list(CASES)
+    camera = Camera(args.lens_blur, args.noise, args.crf)
     print(f"SMA bed, second renderer: {SIZE[0]}×{SIZE[1]}, {args.fps:g} fps, {args.seconds:g} s, "
           f"{PX_PER_MM} px/mm, markers {MARKER_MM:g} mm ({MARKER_MM * PX_PER_MM / 2:.1f} px "
-          f"radius), noise {NOISE_DN} DN, H.264 crf 20; {args.seeds} seeds per case"
+          f"radius), noise {camera.noise_dn:g} DN, H.264 crf {camera.crf}; {args.seeds} seeds "
+          "per case"
           + ("; no wire drawn" if args.no_wire else "")
-          + (f"; lens blur {args.lens_blur:g} px" if args.lens_blur != LENS_BLUR_PX else ""))
+          + (f"; lens blur {camera.lens_blur_px:g} px"
+             if camera.lens_blur_px != LENS_BLUR_PX else ""))
     for case in cases:
         rows = []
         for seed in range(args.seeds):
@@ -303,7 +327,7 @@ def main(argv: list[str] | None = None) -> None:
                 where.mkdir(parents=True, exist_ok=True)
                 try:
                     rows.append(measure(case, seed, where, args.seconds, args.fps,
-                                        not args.no_wire, args.lens_blur))
+                                        not args.no_wire, camera))
                 except CranktrackError as e:
                     print(f"\n{case.name}, seed {seed}: cranktrack refused: {e}")
         if not rows:
