@@ -369,7 +369,8 @@ def _span(start: tuple[float, str] | None, end: tuple[float, str] | None):
 
 def cmd_inspect(args: argparse.Namespace) -> int:
     from .report.survey import write_survey_png
-    from .tracker.survey import crank_slider, frame_and_later, survey
+    from .tracker.marker_state import rig_focus_note
+    from .tracker.survey import crank_slider, frame_and_later, rig_edges, survey
     from .tracker.video import open_frames
 
     video = Path(args.video)
@@ -411,6 +412,8 @@ def cmd_inspect(args: argparse.Namespace) -> int:
                   "the kinematics know which is which), with the A–C length you measured:"
                   f"\n  cranktrack track {shlex.quote(str(video))}{fps} {named} "
                   "--known-length A-C=MM --out run")
+            if note := rig_focus_note(rig_edges(frame, table, rig)):
+                print(note)
         print("\nrename the ones you want and track them, e.g.:\n  cranktrack track "
               f"{shlex.quote(str(video))}{fps} {picks} --out run")
     print(f"wrote {out}")

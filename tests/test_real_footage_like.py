@@ -319,6 +319,29 @@ def test_the_crank_sliders_discs_out_of_focus_are_said_to_be(tmp_path, blur):
         assert not said and max(edges) < 1.0, (said, edges)
 
 
+@pytest.mark.parametrize("blur", [0.0, 3.0])
+def test_inspect_says_the_crank_sliders_discs_look_out_of_focus(tmp_path, capsys, blur):
+    import cv2
+    from scipy.ndimage import gaussian_filter
+
+    from cranktrack.cli import main
+
+    discs = [(50.0, 90.0, 10.0, (40.0, 170.0, 70.0)), (95.0, 60.0, 10.0, (200.0, 40.0, 45.0)),
+             (190.0, 90.0, 10.0, (40.0, 70.0, 200.0))]
+    image = draw(discs, background=(200.0, 190.0, 170.0), noise_dn=0.0).astype(float)
+    if blur:
+        image = gaussian_filter(image, sigma=(blur, blur, 0.0))
+    image += np.random.default_rng(3).normal(0.0, 1.5, image.shape)
+    image = np.clip(image.round(), 0, 255).astype(np.uint8)
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    cv2.imwrite(str(frames / "f000.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+    assert main(["inspect", str(frames), "--fps", "10", "--out", str(tmp_path / "s.png")]) == 0
+    out = capsys.readouterr().out
+    assert "the crank-slider's A, B and C" in out
+    assert ("A, B, C look out of focus" in out) == bool(blur), out
+
+
 def test_focus_notes_are_for_printed_discs_found_in_most_frames_or_refused_as_shaded():
     from cranktrack.tracker.marker_state import MarkerState, focus_notes
 

@@ -549,6 +549,18 @@ class MarkerState:
         return float(np.hypot(x1 - x0, y1 - y0))
 
 
+def rig_focus_note(edges: dict[str, float]) -> str | None:
+    """What ``inspect`` should say of the crank-slider's discs whose fitted edges
+    (``edges``, px, by name) are :data:`OUT_OF_FOCUS_EDGE_PX` or wider, or None."""
+    soft = {name: e for name, e in edges.items() if e >= OUT_OF_FOCUS_EDGE_PX}
+    if not soft:
+        return None
+    return (f"{', '.join(soft)} look{'s' if len(soft) == 1 else ''} out of focus: edges "
+            f"blurred over {', '.join(f'{e:.1f}' for e in soft.values())} px (1.0-1.5 in "
+            "focus on H.264). Out of focus, B may be lost and θ off by 0.5-0.8° "
+            "(bench/README.md, stop 49): focus the camera on the markers before filming")
+
+
 def focus_notes(states: list[MarkerState], found: dict[str, float]) -> list[str]:
     """What the user should hear of the crank-slider's printed discs if they look out of
     focus: found in half the frames or more (``found``: fraction of frames, by name) with

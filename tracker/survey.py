@@ -21,9 +21,13 @@ from .markers import (
     MarkerSpec,
     balanced_hsv,
     find_blobs,
+    parse_markers,
     white_balance_gains,
 )
 from .video import Frame
+
+#: How many times :func:`rig_edges` fits a disc again from its last fit.
+RIG_REFITS = 3
 
 #: Hues searched, 30° apart, each ±20°: every hue falls in at least one window.
 SURVEY_HUES_DEG = tuple(range(0, 360, 30))
@@ -219,3 +223,28 @@ def crank_slider(table: pd.DataFrame) -> dict[str, str] | None:
     if max(radii) > 2.0 * min(radii):
         return None
     return {name: f"{name}={r.colour}@{r.x_px:.0f},{r.y_px:.0f}" for name, r in found.items()}
+
+
+def rig_edges(image: Frame | NDArray[np.uint8], table: pd.DataFrame, rig: dict[str, str]
+              ) -> dict[str, float]:
+    """The edge width (px, the disc model's blur) of each of the crank-slider's discs
+    :func:`crank_slider` found in ``table``, by name, fitted as the tracker fits them
+    (NaN where the fit fails): 2 px or more is out of focus
+    (:data:`.marker_state.OUT_OF_FOCUS_EDGE_PX`)."""
+    from .refine import refine  # the survey itself fits nothing: imported for this only
+
+    edges = {}
+    for spec in parse_markers(list(rig.values())):
+        x, y = spec.near_px
+        row = table.iloc[int(np.argmin(np.hypot(table["x_px"] - x, table["y_px"] - y)))]
+        centre, marker = refine(image, (row.x_px, row.y_px), row.radius_px, wire=True)
+        # A first fit from scratch may stop short of a blurred edge (a drawn disc blurred
+        # by 3 px: 0.9 px, then 3.1 fitted again from it), as the tracker's next frames do.
+        for _ in range(RIG_REFITS):
+            if not centre.ok or centre.params is None:
+                break
+            centre, _ = refine(image, (centre.x, centre.y), centre.radius, marker,
+                               init=centre.params, wire=True)
+        edges[spec.name] = (float(centre.params[3]) if centre.ok and centre.params is not None
+                            else float("nan"))
+    return edges
