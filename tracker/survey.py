@@ -5,6 +5,7 @@ tracker can see: which compact blobs of one colour, or of white or black,
 the frame holds, where, how big, and what ``--marker`` would follow each.
 :func:`survey` finds them with the tracker's own masks (so what it lists is
 what ``track`` will find) over a ring of hues and the two luminance tones.
+:func:`rig_edges` fits the crank-slider's three discs, to tell whether they are in focus.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from .markers import (
     parse_markers,
     white_balance_gains,
 )
+from .refine import refine
 from .video import Frame
 
 #: How many times :func:`rig_edges` fits a disc again from its last fit.
@@ -231,8 +233,6 @@ def rig_edges(image: Frame | NDArray[np.uint8], table: pd.DataFrame, rig: dict[s
     :func:`crank_slider` found in ``table``, by name, fitted as the tracker fits them
     (NaN where the fit fails): 2 px or more is out of focus
     (:data:`.marker_state.OUT_OF_FOCUS_EDGE_PX`)."""
-    from .refine import refine  # the survey itself fits nothing: imported for this only
-
     edges = {}
     for spec in parse_markers(list(rig.values())):
         x, y = spec.near_px
