@@ -412,7 +412,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
                   "the kinematics know which is which), with the A–C length you measured:"
                   f"\n  cranktrack track {shlex.quote(str(video))}{fps} {named} "
                   "--known-length A-C=MM --out run")
-            if note := rig_focus_note(rig_edges(frame, table, rig)):
+            if note := rig_focus_note(rig_edges(frame, table)):
                 print(note)
         print("\nrename the ones you want and track them, e.g.:\n  cranktrack track "
               f"{shlex.quote(str(video))}{fps} {picks} --out run")

@@ -428,7 +428,8 @@ def _measure_into(folder: Path, tracks: pd.DataFrame, hues: dict[str, float | No
     if never:
         hue = hues[never[0]]
         # A warning may already say why (refused as shaded, never near its place).
-        said = any(p.startswith(f"marker {never[0]}") for p in problems)
+        said = any(p.startswith((f"marker {never[0]} ", f"marker {never[0]}:"))
+                   for p in problems)
         raise CranktrackError(
             f"marker {never[0]}{'' if hue is None else f' (hue {hue:g}°)'} was not found in "
             f"any frame, so there are no kinematics; {folder / TRACKS} has what was found; "

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -207,7 +208,7 @@ class MarkerState:
     learning_frames: list[int] = field(default_factory=list)
     #: Edge widths of its last :data:`EDGES_KEPT` disc fits (the model's Gaussian blur),
     #: px: how sharp it is (:func:`focus_notes`).
-    edges_seen: list[float] = field(default_factory=list)
+    edges_seen: deque[float] = field(default_factory=lambda: deque(maxlen=EDGES_KEPT))
     #: Frames whose blob of its colour, a printed disc's, was refused as shaded.
     refused_shaded: int = 0
     #: After a false start: its frames and radius (px), to be judged at the next find.
@@ -374,7 +375,7 @@ class MarkerState:
             self.peak = (centre.peak if self.peak is None
                          else 0.9 * self.peak + 0.1 * centre.peak)
         if centre.params is not None and not centre.rim and np.isfinite(centre.params[3]):
-            self.edges_seen = [*self.edges_seen[-(EDGES_KEPT - 1):], float(centre.params[3])]
+            self.edges_seen.append(float(centre.params[3]))
         self.shape = centre.params
         if seen is not None:
             self.marker = seen if self.marker is None else 0.9 * self.marker + 0.1 * seen
@@ -549,15 +550,21 @@ class MarkerState:
         return float(np.hypot(x1 - x0, y1 - y0))
 
 
+def _out_of_focus(soft: dict[str, float]) -> str:
+    """``A, C look out of focus: edges blurred over …`` for printed discs whose fitted
+    edges (px, by name) are :data:`OUT_OF_FOCUS_EDGE_PX` or wider."""
+    return (f"{', '.join(soft)} look{'s' if len(soft) == 1 else ''} out of focus: edges "
+            f"blurred over {', '.join(f'{e:.1f}' for e in soft.values())} px (1.0-1.5 in "
+            "focus on H.264)")
+
+
 def rig_focus_note(edges: dict[str, float]) -> str | None:
     """What ``inspect`` should say of the crank-slider's discs whose fitted edges
     (``edges``, px, by name) are :data:`OUT_OF_FOCUS_EDGE_PX` or wider, or None."""
     soft = {name: e for name, e in edges.items() if e >= OUT_OF_FOCUS_EDGE_PX}
     if not soft:
         return None
-    return (f"{', '.join(soft)} look{'s' if len(soft) == 1 else ''} out of focus: edges "
-            f"blurred over {', '.join(f'{e:.1f}' for e in soft.values())} px (1.0-1.5 in "
-            "focus on H.264). Out of focus, B may be lost and θ off by 0.5-0.8° "
+    return (f"{_out_of_focus(soft)}. Out of focus, B may be lost and θ off by 0.5-0.8° "
             "(bench/README.md, stop 49): focus the camera on the markers before filming")
 
 
@@ -569,16 +576,13 @@ def focus_notes(states: list[MarkerState], found: dict[str, float]) -> list[str]
     flat = [st for st in states if st.spec.flat]
     # Found in half the frames or more: a patch of a disc's colour taken for it now and
     # then on a clip with no markers (a door on OpenCV's vtest.avi) is no disc to judge.
-    soft = [st for st in flat if found.get(st.spec.name, 0.0) >= 0.5
-            and st.edge_px is not None and st.edge_px >= OUT_OF_FOCUS_EDGE_PX]
+    soft = {st.spec.name: st.edge_px for st in flat if found.get(st.spec.name, 0.0) >= 0.5
+            and st.edge_px is not None and st.edge_px >= OUT_OF_FOCUS_EDGE_PX}
     notes = []
     if soft:
-        names = ", ".join(st.spec.name for st in soft)
-        edges = ", ".join(f"{st.edge_px:.1f}" for st in soft)
         notes.append(
-            f"marker{'s' if len(soft) > 1 else ''} {names} look{'' if len(soft) > 1 else 's'} "
-            f"out of focus: edges blurred over {edges} px (1.0-1.5 in focus on H.264). On a "
-            "second renderer's SMA bed blurred so, θ was off by 0.5-0.8° against a σ of "
+            f"marker{'s' if len(soft) > 1 else ''} {_out_of_focus(soft)}. On a second "
+            "renderer's SMA bed blurred so, θ was off by 0.5-0.8° against a σ of "
             "0.1-0.2°, and B was lost in many frames (bench/README.md, stop 49); focus the "
             "camera on the markers")
     for st in flat:

@@ -22,7 +22,6 @@ from .markers import (
     MarkerSpec,
     balanced_hsv,
     find_blobs,
-    parse_markers,
     white_balance_gains,
 )
 from .refine import refine
@@ -202,14 +201,11 @@ def survey(rgb: NDArray[np.uint8], min_area_px: int = 12, most: int = 12,
     return table
 
 
-def crank_slider(table: pd.DataFrame) -> dict[str, str] | None:
+def _rig_rows(table: pd.DataFrame) -> dict[str, pd.Series] | None:
     """The crank-slider's markers among a survey's candidates (:func:`survey`): for
     each of the default A (green), B (red) and C (blue), the first plain disc whose
     hue lies in that marker's window, all three of a size (radii within 2× of each
-    other). ``--marker`` values naming them A, B and C, by marker name, or None when
-    any of the three is missing. Named so, they are tracked as the printed discs
-    the defaults are, with the rig's wire taken into account, and the kinematics
-    know which is which; named m1, m2, m3 they are neither."""
+    other); their rows by marker name, or None when any of the three is missing."""
     found: dict[str, pd.Series] = {}
     for spec in DEFAULT_MARKERS:
         for _, r in table.iterrows():
@@ -224,19 +220,28 @@ def crank_slider(table: pd.DataFrame) -> dict[str, str] | None:
     radii = [r.radius_px for r in found.values()]
     if max(radii) > 2.0 * min(radii):
         return None
+    return found
+
+
+def crank_slider(table: pd.DataFrame) -> dict[str, str] | None:
+    """``--marker`` values naming the crank-slider's discs among a survey's candidates
+    A, B and C (:func:`_rig_rows`), by marker name, or None when any of the three is
+    missing. Named so, they are tracked as the printed discs the defaults are, with the
+    rig's wire taken into account, and the kinematics know which is which; named m1,
+    m2, m3 they are neither."""
+    found = _rig_rows(table)
+    if found is None:
+        return None
     return {name: f"{name}={r.colour}@{r.x_px:.0f},{r.y_px:.0f}" for name, r in found.items()}
 
 
-def rig_edges(image: Frame | NDArray[np.uint8], table: pd.DataFrame, rig: dict[str, str]
-              ) -> dict[str, float]:
+def rig_edges(image: Frame | NDArray[np.uint8], table: pd.DataFrame) -> dict[str, float]:
     """The edge width (px, the disc model's blur) of each of the crank-slider's discs
-    :func:`crank_slider` found in ``table``, by name, fitted as the tracker fits them
-    (NaN where the fit fails): 2 px or more is out of focus
-    (:data:`.marker_state.OUT_OF_FOCUS_EDGE_PX`)."""
+    found in a survey's ``table`` (:func:`_rig_rows`), by name, fitted as the tracker
+    fits them (NaN where the fit fails; empty without all three): 2 px or more is out
+    of focus (:data:`.marker_state.OUT_OF_FOCUS_EDGE_PX`)."""
     edges = {}
-    for spec in parse_markers(list(rig.values())):
-        x, y = spec.near_px
-        row = table.iloc[int(np.argmin(np.hypot(table["x_px"] - x, table["y_px"] - y)))]
+    for name, row in (_rig_rows(table) or {}).items():
         centre, marker = refine(image, (row.x_px, row.y_px), row.radius_px, wire=True)
         # A first fit from scratch may stop short of a blurred edge (a drawn disc blurred
         # by 3 px: 0.9 px, then 3.1 fitted again from it), as the tracker's next frames do.
@@ -245,6 +250,6 @@ def rig_edges(image: Frame | NDArray[np.uint8], table: pd.DataFrame, rig: dict[s
                 break
             centre, _ = refine(image, (centre.x, centre.y), centre.radius, marker,
                                init=centre.params, wire=True)
-        edges[spec.name] = (float(centre.params[3]) if centre.ok and centre.params is not None
-                            else float("nan"))
+        edges[name] = (float(centre.params[3]) if centre.ok and centre.params is not None
+                       else float("nan"))
     return edges
