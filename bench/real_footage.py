@@ -15,7 +15,8 @@ removing the constant offset between a click and a centre; the physics residual 
 parabola for a ball in flight) and the figure it gives (g, with the peer's own tape
 measure on the metre stick as the known length, and again with the stick's own
 painted tenths), the same figure from the peer's clicks; ±1σ coverage of our σ against that
-parabola; and the wall time of tracking against decoding alone. For an
+parabola; and the wall time of tracking against decoding alone (PyAV's own loop to
+RGB arrays, :func:`common.decode_only`). For an
 animation that loops (jmoljana, a Jmol vibration), the physics is the loop: a
 frame and the one a period later (the period taken from the peer's clicks)
 must agree, which gives each track's own scatter and our σ's coverage. Without the path
@@ -49,7 +50,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import CACHE
+from common import CACHE, decode_only
 from pendulum import G, plane_swing, sphere_swing
 
 from cranktrack.calibration.readout import readout_from_flight, tilted_plane_residual
@@ -300,9 +301,13 @@ def _same_pixels(video: Path, other: Path, clip: Clip) -> str:
 
 
 def decode_seconds(video: Path, fps: float | None) -> float:
+    """Seconds to decode ``video`` to RGB arrays and nothing else: PyAV's own loop for a
+    file (:func:`common.decode_only`), OpenCV's ``imread`` for a folder of images."""
+    if not video.is_dir():
+        return decode_only(video)[1]
     t0 = time.perf_counter()
     for f in open_frames(video, fps).frames():
-        f.rgb  # noqa: B018 - converting is part of what tracking must do
+        f.rgb  # noqa: B018 - reading the images is all decoding is here
     return time.perf_counter() - t0
 
 
@@ -409,7 +414,7 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
           "(it prints the first 12)")
     if ok.sum() < max(4, 0.25 * len(peer_frames)):
         print("  too few frames found to compare with the peer or the physics")
-        print(f"  time: tracking {track_s:.2f} s, decoding alone {decode_s:.2f} s "
+        print(f"  time: tracking {track_s:.2f} s, PyAV decoding to RGB alone {decode_s:.2f} s "
               f"(ratio decode/track {decode_s / track_s:.2f})")
         return {}
     diff = ours[ok] - theirs[ok]
@@ -536,7 +541,7 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
         print(f"  ±1σ coverage of our σ (median {np.nanmedian(sig_all):.3f} px) against the "
               f"repetition: {100 * repeat_coverage(ours_all, sig_all, lag):.0f} % of "
               "coordinates (aim 50–90 %)")
-    print(f"  time: tracking {track_s:.2f} s, decoding alone {decode_s:.2f} s "
+    print(f"  time: tracking {track_s:.2f} s, PyAV decoding to RGB alone {decode_s:.2f} s "
           f"(ratio decode/track {decode_s / track_s:.2f}; aim ≥ 0.9 on clips over 10 s)")
     return figures
 
@@ -634,7 +639,7 @@ def run_pendulum(repo: Path) -> None:
           f"{100 * np.mean(dof * np.abs(r) <= sigma[:, None]):.0f} % (aim 50–90 %); residual "
           f"lag-1 correlation x {r1[0]:+.2f}, y {r1[1]:+.2f} (near +1: the swing model's "
           "error, not the track's)")
-    print(f"  time: tracking {track_s:.2f} s, decoding alone {decode_s:.2f} s "
+    print(f"  time: tracking {track_s:.2f} s, PyAV decoding to RGB alone {decode_s:.2f} s "
           f"(ratio decode/track {decode_s / track_s:.2f}; aim ≥ 0.9 on clips over 10 s)")
 
 
@@ -877,7 +882,7 @@ def run_rover(repo: Path, yupi_python: Path | None) -> None:
             arm_rate(video, theirs, np.median(pivot[rest & pivot_ok], axis=0), off, still)
     else:
         print("  no --yupi-python given: yupi's own track not made")
-    print(f"  time: tracking {track_s:.2f} s, decoding alone {decode_s:.2f} s "
+    print(f"  time: tracking {track_s:.2f} s, PyAV decoding to RGB alone {decode_s:.2f} s "
           f"(ratio decode/track {decode_s / track_s:.2f}; aim ≥ 0.9 on clips over 10 s)")
 
 

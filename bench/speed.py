@@ -40,34 +40,18 @@ import tempfile
 import time
 from pathlib import Path
 
-import av
 import cv2
 import numpy as np
 import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import clip_1080p, track_command
+from common import clip_1080p, decode_only, track_command
 
 from cranktrack.environment import versions_line
 from cranktrack.synthetic.scene import SceneFiles
 from cranktrack.tracker.markers import DEFAULT_MARKERS
 from cranktrack.tracker.track import track
 from cranktrack.tracker.video import open_frames
-
-
-def decode_only(path: Path, fmt: str | None = "rgb24") -> tuple[int, float]:
-    """Decode every frame to arrays and nothing else: RGB (what a pipeline that
-    works on RGB needs) or, with ``fmt=None``, the decoder's own YUV planes (the
-    floor: no colour conversion at all)."""
-    t = time.perf_counter()
-    n = 0
-    with av.open(str(path)) as container:
-        stream = container.streams.video[0]
-        stream.thread_type = "AUTO"
-        for frame in container.decode(stream):
-            frame.to_ndarray(format=fmt) if fmt else frame.to_ndarray()
-            n += 1
-    return n, time.perf_counter() - t
 
 
 def track_all(path: Path) -> tuple[int, float, pd.DataFrame]:
