@@ -136,6 +136,17 @@ def test_blobs_of_wrong_size_or_shape_are_rejected():
     assert choose_blob([other, disc], 175.0, near=(12.0, 9.0))[0] is disc
 
 
+def test_a_blob_too_small_to_show_its_shape_is_no_strip():
+    # Blobs as OpenCV's connected components give them: area, fill of the box, aspect.
+    # A disc 3 px across fills its 3×3 box; the core of a dim disc, 3×2 px, fills its
+    # box too. Neither says it is a square or a strip; from 4 px across a box does.
+    assert not Blob(5, 5, 9.0, 1.0, 1.0).elongated()
+    assert not Blob(5, 5, 6.0, 1.0, 1.5).elongated()
+    assert Blob(5, 5, 16.0, 1.0, 1.0).elongated()  # a square 4 px a side
+    assert Blob(5, 5, 48.0, 1.0, 3.0).elongated()  # a strip of tape 12×4 px
+    assert not Blob(5, 5, 12.6, 0.79, 1.0).elongated()  # a disc 4 px across
+
+
 def test_colour_names_and_hues():
     assert MarkerSpec.from_colour("W", "yellow").hue_deg == 60.0
     assert MarkerSpec.from_colour("W", "200").hue_deg == 200.0

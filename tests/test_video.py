@@ -103,6 +103,44 @@ def test_h264_frames_keep_the_decoders_planes_and_convert_like_ffmpeg(tmp_path):
             np.testing.assert_array_equal(fresh.region(x0, y0, x1, y1), whole[y0:y1, x0:x1])
 
 
+@pytest.mark.parametrize("how", ["yuvj420p", "color_range"])
+def test_full_range_h264_keeps_the_planes_and_converts_like_ffmpeg(tmp_path, how):
+    # Phones and webcams often store JPEG levels (0–255): as the older pixel format
+    # "yuvj420p" or as yuv420p flagged full range. Read with video levels (16–235)
+    # the scene below comes out up to 20 DN off FFmpeg's own RGB; read as full range,
+    # within 2 DN (0.65 DN on average: FFmpeg's fixed-point coefficients).
+    rng = np.random.default_rng(3)
+    img = rng.integers(0, 256, (96, 128, 3), dtype=np.uint8)
+    img = cv2.GaussianBlur(img, (0, 0), 3)
+    img = cv2.normalize(img, None, 0, 255, cv2.NORM_MINMAX)  # blacks and whites too
+    path = tmp_path / "full.mp4"
+    with av.open(str(path), "w") as out:
+        stream = out.add_stream("libx264", rate=30)
+        stream.width, stream.height = 128, 96
+        stream.pix_fmt = "yuvj420p" if how == "yuvj420p" else "yuv420p"
+        stream.options = {"crf": "10"}
+        if how == "color_range":
+            stream.codec_context.color_range = 2
+        for k in range(3):
+            frame = av.VideoFrame.from_ndarray(img, format="rgb24")
+            frame.color_range = 2
+            frame = frame.reformat(format=stream.pix_fmt, dst_color_range=2)
+            frame.pts = k
+            for packet in stream.encode(frame):
+                out.mux(packet)
+        for packet in stream.encode():
+            out.mux(packet)
+    frames = list(open_frames(path).frames())
+    assert frames[0].layout == "i420" and frames[0].full_range
+    with av.open(str(path)) as c:
+        ffmpeg = [f.to_ndarray(format="rgb24") for f in c.decode(c.streams.video[0])]
+    for mine, ref in zip(frames, ffmpeg, strict=True):
+        d = mine.region(0, 0, 128, 96).astype(int) - ref
+        assert np.abs(d).max() <= 3 and np.abs(d).mean() < 1.5
+        video_levels = Frame(mine.index, mine.t_s, mine.pixels, mine.layout).rgb
+        assert np.abs(video_levels.astype(int) - ref).max() > 15
+
+
 def test_an_h264_render_written_again_is_the_same(tmp_path):
     # The same frames must code to the same pictures, or no render (and no figure
     # measured on one) can be made again. A still scene with fresh sensor noise in

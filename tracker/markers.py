@@ -232,6 +232,13 @@ def parse_markers(items: list[str]) -> tuple[MarkerSpec, ...]:
     return tuple(given.values()) or DEFAULT_MARKERS
 
 
+#: The shorter side (px) under which a blob's box does not tell a disc from a square
+#: or a strip. Yupi's rover pivot, a disc 25 px across, was first seen in a dim frame
+#: as a core 3×2 px: under one invisible ±1 DN pattern (of six) that core was taken
+#: for a strip, and the pivot was lost in every frame after.
+SHAPELESS_PX = 4.0
+
+
 @dataclass(frozen=True)
 class Blob:
     """A connected region of a marker's colour: mask centroid (px), area (px²),
@@ -277,7 +284,12 @@ class Blob:
         attached). A disc fitted to a strip slides along it: on 8×3.5 px strips it
         was off by 0.4 px along the strip. (A streak's thresholded blob can look
         round: its faint ends fall below the threshold; the coverage's moments
-        tell, :attr:`.Centre.length_px`.)"""
+        tell, :attr:`.Centre.length_px`.)
+
+        A blob under :data:`SHAPELESS_PX` across its shorter side says nothing by its
+        box: a disc 3 px across fills it as a square does."""
+        if 2.0 * self.half_width < SHAPELESS_PX:
+            return False
         return self.fill > 0.92 or (not 1 / 1.6 <= self.aspect <= 1.6 and self.fill >= 0.8)
 
     def solid(self) -> bool:
