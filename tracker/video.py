@@ -35,6 +35,15 @@ IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 #: order (3 were needed by a webcam H.264 file; H.264 allows up to 16 in theory).
 REORDER_DEPTH = 8
 
+#: Frames smaller than this (px) are decoded on one thread. The tracker reads each frame
+#: beside the decoder, on the other core; a frame this small takes one core a fraction
+#: of the time the tracker spends on it (the pendulum clip, 640×352: 0.2 ms against
+#: 0.5 ms), and FFmpeg's own threads only take CPU from the tracker: tracking that clip
+#: took 0.23-0.27 s with them, 0.19 s without; yupi's rover (700×480) 0.40-0.43 s, 0.37 s.
+#: Larger frames keep FFmpeg's threads: a 1280×720 render took 0.35 s with them, 0.40 s
+#: without (bench/README.md, stop 50).
+ONE_DECODER_THREAD_PX = 500_000
+
 
 #: FFmpeg colour-space codes whose YUV → RGB matrix is BT.601 (or unspecified,
 #: which FFmpeg also converts as BT.601): unspecified, BT.470BG, SMPTE 170M.
@@ -226,6 +235,8 @@ class FrameSource:
         with av.open(str(self.path), metadata_errors="replace") as container:
             stream = container.streams.video[0]
             stream.thread_type = "AUTO"  # frame-threaded decoding; order is kept
+            if self.width * self.height < ONE_DECODER_THREAD_PX:
+                stream.codec_context.thread_count = 1
             packets = container.demux(stream)
             while True:
                 try:
