@@ -345,6 +345,23 @@ def _likest(frame: Frame, state: MarkerState, hsv_cache: dict, pred: tuple[float
 #: every frame. Filled, 0.02–0.06; a shaded ball of B's colour stays near 1, and the
 #: flat markers of the design render 0.01–0.03.
 WIRE_FILL_PX = 7
+#: ...and this many px wider per px of the disc's fitted edge width beyond a sharp
+#: disc's (:data:`SHARP_EDGE_PX`, the second renderer's discs in focus on H.264): out
+#: of focus the wire's shadow spreads as wide as the disc's edge. On that renderer's
+#: bed blurred by 2 px B was rejected in every frame (its middle leaning by 0.26 of its
+#: coverage) and by 2.5 px in 71 % of them; filled so, it was found in 82 and 100 %
+#: (bench/README.md, stop 50). In focus nothing changes.
+WIRE_FILL_PER_EDGE_PX = 4.0
+SHARP_EDGE_PX = 1.2
+
+
+def _wire_fill_px(centre: Centre) -> int:
+    """How wide (px) a dark line across a printed disc fitted as ``centre`` is filled
+    before the disc is judged shaded."""
+    if centre.params is None:
+        return WIRE_FILL_PX
+    extra = WIRE_FILL_PER_EDGE_PX * max(centre.params[3] - SHARP_EDGE_PX, 0.0)
+    return round(float(WIRE_FILL_PX + extra))
 
 
 def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
@@ -377,7 +394,7 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
         # The crank-slider's wire is tied at B and may cross A: on a printed disc a
         # dark line is the wire, not shading.
         ball = shaded(alpha, x0, y0, (centre.x, centre.y), centre.radius,
-                      WIRE_FILL_PX if state.spec.flat else 0)
+                      _wire_fill_px(centre) if state.spec.flat else 0)
         if state.spec.flat:
             # One of the crank-slider's printed discs is never a ball: a shaded
             # blob of its colour (a sleeve, a sign) is something else, and its disc
