@@ -65,7 +65,8 @@ SOFT_MAX = 3.0
 def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius: float,
            marker: NDArray | None = None, init: tuple[float, ...] | None = None,
            edges: bool | None = None, luminance: bool = False, rim: bool | None = None,
-           wire: bool = False, hold_shape: bool = False) -> tuple[Centre, NDArray | None]:
+           wire: bool = False, hold_shape: bool = False,
+           wire_toward: tuple[float, float] | None = None) -> tuple[Centre, NDArray | None]:
     """Sub-pixel centre of a marker near ``guess`` (see the module's docstring).
 
     Chroma unmixing against a ring background, then a blurred-disc fit. A
@@ -119,6 +120,11 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
              and image.layout == "i420")
     tol = 0.02 if cells else 1e-3
     hold = hold_shape and init is not None
+    band = None
+    if wire and wire_toward is not None and init is not None and len(init) >= 4 \
+            and init[3] >= BAND_EDGE_PX:
+        band = _wire_band(alpha.shape, x0, y0, guess, wire_toward, init[3], radius)
+        whole, alpha = alpha, np.where(band, np.nan, alpha)
     fit = fit_disc(alpha, x0, y0, guess, radius, init=init, tol_px=tol, hold_shape=hold)
     for _ in range(3):
         # The background ring must be centred on the marker; a guess more than
@@ -128,6 +134,9 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
         guess = (fit.x, fit.y)
         patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
         alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance)
+        if band is not None:
+            band = _wire_band(alpha.shape, x0, y0, guess, wire_toward, init[3], radius)
+            whole, alpha = alpha, np.where(band, np.nan, alpha)
         fit = fit_disc(alpha, x0, y0, guess, radius, init=fit.params, tol_px=tol,
                        hold_shape=hold)
     if fit.ok and not hold and not wire:
@@ -138,8 +147,12 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
                                                         radius,
                                                         seen if marker is None else marker,
                                                         luminance, tol)
+    if band is not None and fit.ok:
+        # The checks of a whole marker compare its visible area with its usual, which
+        # counts the wire's band too (as for a line found across it, below).
+        fit = replace(fit, area=fit.area + _band_area(whole, band, x0, y0, guess, radius))
     fitted = alpha
-    hidden, start = (_line_across(alpha, x0, y0, fit, init) if wire
+    hidden, start = (_line_across(alpha, x0, y0, fit, init) if wire and band is None
                      else (None, fit.params))
     if hidden is not None:
         # A wire or thread across the disc: fitted again without its pixels.
@@ -165,6 +178,41 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     if c is None:
         return fit, seen
     return Centre(c.x, c.y, c.sigma, c.radius, True), seen
+
+
+#: A printed disc whose edge is blurred over this many px or more (out of focus; 1.2-1.5
+#: in focus on H.264) is fitted without a band along the wire (:func:`_wire_band`).
+BAND_EDGE_PX = 1.8
+#: ...as wide as the wire's shadow spreads: this many edge widths either side, and
+#: WIRE_HALF_PX for the wire itself.
+BAND_EDGES = 1.5
+WIRE_HALF_PX = 1.0
+#: ...but at most this fraction of the disc's radius either side.
+BAND_MOST = 0.5
+
+
+def _wire_band(shape: tuple[int, ...], x0: int, y0: int, centre: tuple[float, float],
+               toward: tuple[float, float], edge_px: float, radius: float) -> NDArray:
+    """Pixels of a patch (``shape``, top-left ``x0, y0``) within the wire's blurred shadow:
+    a band through ``centre`` along the line to ``toward`` (px), :data:`WIRE_HALF_PX` +
+    :data:`BAND_EDGES` edge widths either side. Through the whole disc, so that what is
+    left out is symmetric about its centre and pulls the fit nowhere."""
+    dx, dy = toward[0] - centre[0], toward[1] - centre[1]
+    norm = float(np.hypot(dx, dy))
+    if norm < 1e-6:
+        return np.zeros(shape[:2], bool)
+    yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
+    across = ((xx + x0 - centre[0]) * dy - (yy + y0 - centre[1]) * dx) / norm
+    return np.abs(across) <= min(WIRE_HALF_PX + BAND_EDGES * edge_px, BAND_MOST * radius)
+
+
+def _band_area(alpha: NDArray, band: NDArray, x0: int, y0: int,
+               guess: tuple[float, float], radius: float) -> float:
+    """Σα (px²) of the band's pixels that a disc fit around ``guess`` would have taken in
+    (within ``radius`` + 3 px, as :func:`.disc.fit_disc`)."""
+    yy, xx = np.mgrid[0:alpha.shape[0], 0:alpha.shape[1]]
+    near = np.hypot(xx + x0 - guess[0], yy + y0 - guess[1]) <= radius + 3.0
+    return float(np.nansum(np.where(band & near, alpha, 0.0)))
 
 
 def _line_across(alpha: NDArray, x0: int, y0: int, fit: Centre,
