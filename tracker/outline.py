@@ -420,7 +420,7 @@ SHADED_MIN_RADIUS_PX = 8.0
 
 
 def shaded(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float],
-           radius: float, fill_lines_px: int = 0) -> bool:
+           radius: float, fill_lines_px: int = 0, band_half_px: float = 0.0) -> bool:
     """Does the coverage vary across the marker's middle (within half its radius) as
     on a shaded ball? Then its rim, not a flat disc, says where its centre is.
 
@@ -461,7 +461,41 @@ def shaded(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float],
                 xx[core], yy[core], (centre[0] - x0, centre[1] - y0), TIED_PX):
             q10, q90 = np.percentile(filled[middle], [10, 90])
             return bool(q90 > 0 and (q90 - q10) / q90 > SHADED_SPREAD)
+        if band_half_px and _even_beside_a_band(alpha, xx + x0 - centre[0],
+                                                 yy + y0 - centre[1], radius, band_half_px):
+            return False
     return True
+
+
+#: Directions tried for the darkest band through a printed disc's centre (degrees apart).
+BAND_STEP_DEG = 5.0
+#: ...over the disc within this fraction of its radius: three edge widths inside the
+#: rim of a disc 10 px in radius blurred over 1.7 px, where its own edge has fallen by
+#: under 4 %.
+BAND_INSIDE = 0.7
+
+
+def _even_beside_a_band(alpha: NDArray, dx: NDArray, dy: NDArray, radius: float,
+                        half_width: float) -> bool:
+    """Is the disc's coverage within :data:`BAND_INSIDE` of its radius even once the
+    darkest band through its centre, ``half_width`` px either side, is left out? Out of
+    focus the wire's shadow is such a band, too wide and soft to be filled as a line; a
+    shaded ball's coverage still leans beside it (``dx``, ``dy``: each pixel's offset
+    from the centre, px)."""
+    inside = np.isfinite(alpha) & (np.hypot(dx, dy) <= BAND_INSIDE * radius)
+    darkest, best = None, np.inf
+    for deg in np.arange(0.0, 180.0, BAND_STEP_DEG):
+        ux, uy = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+        band = inside & (np.abs(dx * uy - dy * ux) <= half_width)
+        if band.sum() >= 5 and (level := float(np.mean(alpha[band]))) < best:
+            darkest, best = band, level
+    if darkest is None:
+        return False
+    beside = inside & ~darkest
+    if beside.sum() < 10:
+        return False
+    q10, q90 = np.percentile(alpha[beside], [10, 90])
+    return bool(q90 > 0 and (q90 - q10) / q90 <= SHADED_SPREAD)
 
 
 def _even_falloff(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float],

@@ -38,7 +38,15 @@ from .markers import (
     place_reach,
 )
 from .outline import shaded
-from .refine import patch_around, refine, refine_blob
+from .refine import (
+    BAND_EDGE_PX,
+    BAND_EDGES,
+    BAND_MOST,
+    WIRE_HALF_PX,
+    patch_around,
+    refine,
+    refine_blob,
+)
 from .scatter import found_xy, repeated_frames, with_scatter_floor
 from .search import (
     balance_gains,
@@ -366,6 +374,14 @@ def _wire_fill_px(centre: Centre) -> int:
     return round(float(WIRE_FILL_PX + extra))
 
 
+def _wire_band_px(centre: Centre) -> float:
+    """Half the width (px) of the band through a printed disc fitted as ``centre`` that
+    its shading is judged without when it is out of focus (0: in focus)."""
+    if centre.params is None or centre.params[3] < BAND_EDGE_PX:
+        return 0.0
+    return min(WIRE_HALF_PX + BAND_EDGES * centre.params[3], BAND_MOST * centre.radius)
+
+
 def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
                  ) -> tuple[Centre | None, NDArray | None, str]:
     """The refined centre on a blob, what it saw, and why it failed ("" if it did not)."""
@@ -396,7 +412,8 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
         # The crank-slider's wire is tied at B and may cross A: on a printed disc a
         # dark line is the wire, not shading.
         ball = shaded(alpha, x0, y0, (centre.x, centre.y), centre.radius,
-                      _wire_fill_px(centre) if state.spec.flat else 0)
+                      _wire_fill_px(centre) if state.spec.flat else 0,
+                      _wire_band_px(centre) if state.spec.flat else 0.0)
         if state.spec.flat:
             # One of the crank-slider's printed discs is never a ball: a shaded
             # blob of its colour (a sleeve, a sign) is something else, and its disc
