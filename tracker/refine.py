@@ -66,7 +66,8 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
            marker: NDArray | None = None, init: tuple[float, ...] | None = None,
            edges: bool | None = None, luminance: bool = False, rim: bool | None = None,
            wire: bool = False, hold_shape: bool = False,
-           wire_toward: tuple[float, float] | None = None) -> tuple[Centre, NDArray | None]:
+           wire_line: tuple[tuple[float, float], tuple[float, float]] | None = None
+           ) -> tuple[Centre, NDArray | None]:
     """Sub-pixel centre of a marker near ``guess`` (see the module's docstring).
 
     Chroma unmixing against a ring background, then a blurred-disc fit. A
@@ -121,9 +122,9 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     tol = 0.02 if cells else 1e-3
     hold = hold_shape and init is not None
     band = None
-    if wire and wire_toward is not None and init is not None and len(init) >= 4 \
-            and init[3] >= BAND_EDGE_PX:
-        band = _wire_band(alpha.shape, x0, y0, guess, wire_toward, init[3], radius)
+    if wire and wire_line is not None and init is not None and len(init) >= 4 \
+            and init[3] >= BAND_EDGE_PX and _off_line(guess, wire_line) <= radius:
+        band = _wire_band(alpha.shape, x0, y0, wire_line, init[3], radius)
         whole, alpha = alpha, np.where(band, np.nan, alpha)
     fit = fit_disc(alpha, x0, y0, guess, radius, init=init, tol_px=tol, hold_shape=hold)
     for _ in range(3):
@@ -135,7 +136,7 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
         patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
         alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance)
         if band is not None:
-            band = _wire_band(alpha.shape, x0, y0, guess, wire_toward, init[3], radius)
+            band = _wire_band(alpha.shape, x0, y0, wire_line, init[3], radius)
             whole, alpha = alpha, np.where(band, np.nan, alpha)
         fit = fit_disc(alpha, x0, y0, guess, radius, init=fit.params, tol_px=tol,
                        hold_shape=hold)
@@ -191,18 +192,31 @@ WIRE_HALF_PX = 1.0
 BAND_MOST = 0.5
 
 
-def _wire_band(shape: tuple[int, ...], x0: int, y0: int, centre: tuple[float, float],
-               toward: tuple[float, float], edge_px: float, radius: float) -> NDArray:
+def _off_line(point: tuple[float, float],
+              line: tuple[tuple[float, float], tuple[float, float]]) -> float:
+    """Distance (px) from ``point`` to the line through the two points of ``line``."""
+    (ax, ay), (bx, by) = line
+    norm = float(np.hypot(bx - ax, by - ay))
+    if norm < 1e-6:
+        return float(np.hypot(point[0] - ax, point[1] - ay))
+    return abs((point[0] - ax) * (by - ay) - (point[1] - ay) * (bx - ax)) / norm
+
+
+def _wire_band(shape: tuple[int, ...], x0: int, y0: int,
+               line: tuple[tuple[float, float], tuple[float, float]], edge_px: float,
+               radius: float) -> NDArray:
     """Pixels of a patch (``shape``, top-left ``x0, y0``) within the wire's blurred shadow:
-    a band through ``centre`` along the line to ``toward`` (px), :data:`WIRE_HALF_PX` +
-    :data:`BAND_EDGES` edge widths either side. Through the whole disc, so that what is
-    left out is symmetric about its centre and pulls the fit nowhere."""
-    dx, dy = toward[0] - centre[0], toward[1] - centre[1]
-    norm = float(np.hypot(dx, dy))
+    a band along ``line`` (two points on the wire, px), :data:`WIRE_HALF_PX` +
+    :data:`BAND_EDGES` edge widths either side, at most :data:`BAND_MOST` of the disc's
+    ``radius``. Through B and C, the wire's ends, it runs through their centres, so what
+    is left out is symmetric about them and pulls no fit aside; across A it leaves out
+    what the wire darkens."""
+    (ax, ay), (bx, by) = line
+    norm = float(np.hypot(bx - ax, by - ay))
     if norm < 1e-6:
         return np.zeros(shape[:2], bool)
     yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
-    across = ((xx + x0 - centre[0]) * dy - (yy + y0 - centre[1]) * dx) / norm
+    across = ((xx + x0 - ax) * (by - ay) - (yy + y0 - ay) * (bx - ax)) / norm
     return np.abs(across) <= min(WIRE_HALF_PX + BAND_EDGES * edge_px, BAND_MOST * radius)
 
 

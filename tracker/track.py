@@ -199,10 +199,11 @@ def _plausible(c: Centre, guess: tuple[float, float], state: MarkerState) -> boo
 
 def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
             pred: tuple[float, float] | None,
-            wire_toward: tuple[float, float] | None = None) -> tuple[Centre | None, str]:
+            wire_line: tuple[tuple[float, float], tuple[float, float]] | None = None
+            ) -> tuple[Centre | None, str]:
     """The marker's centre in ``frame`` (at ``t`` s), predicted at ``pred`` (px,
-    :meth:`.MarkerState.predict`), and its status. ``wire_toward``: where the wire
-    across this printed disc runs to (px; :func:`.refine.refine`)."""
+    :meth:`.MarkerState.predict`), and its status. ``wire_line``: two points on the
+    crank-slider's wire, which may cross this printed disc (px; :func:`.refine.refine`)."""
     w, h = frame.size
     blob, status = None, "not_found"
     if pred is not None and state.radius is not None:
@@ -223,7 +224,7 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
                 else:
                     centre, seen = refine(frame, pred, r, state.marker, init=state.shape,
                                           luminance=luminance, rim=state.rim,
-                                          wire=state.spec.flat, wire_toward=wire_toward)
+                                          wire=state.spec.flat, wire_line=wire_line)
                     plausible = _plausible(centre, pred, state)
                     again = None if plausible else _held_fit(frame, state, pred, luminance)
                     if again is not None:
@@ -706,10 +707,11 @@ def _locate_markers(frame: Frame, state: TrackerState) -> list:
     hsv_cache: dict = state.balance.copy()
     found: list[tuple[MarkerState, Centre]] = []
     predictions = [st.predict(frame.t_s) for st in state.markers]
-    toward = _wire_ends(state.markers, predictions)
+    wire_line = _wire_line(state.markers, predictions)
     for k, st in enumerate(state.markers):
         predicted = predictions[k]
-        centre, status = _locate(frame, st, frame.t_s, hsv_cache, predicted, toward.get(k))
+        centre, status = _locate(frame, st, frame.t_s, hsv_cache, predicted,
+                                 wire_line if st.spec.flat else None)
         state.balance["gains"] = hsv_cache.get("gains")
         if centre is None:
             values += [np.nan, np.nan, np.nan, False, status]
@@ -730,16 +732,13 @@ def _locate_markers(frame: Frame, state: TrackerState) -> list:
     return values
 
 
-def _wire_ends(markers: list[MarkerState], predictions: list[tuple[float, float] | None]
-               ) -> dict[int, tuple[float, float]]:
-    """For the crank-slider's B and C (printed discs), where the SMA wire between them
-    runs to from each (the other's prediction, px), by the marker's index."""
-    at = {st.spec.name: (k, p) for k, (st, p) in enumerate(zip(markers, predictions, strict=True))
+def _wire_line(markers: list[MarkerState], predictions: list[tuple[float, float] | None]
+               ) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    """Two points on the crank-slider's SMA wire, tied at B and running over C: the
+    predictions of its printed discs B and C (px), or None without both."""
+    at = {st.spec.name: p for st, p in zip(markers, predictions, strict=True)
           if st.spec.flat and p is not None}
-    if "B" not in at or "C" not in at:
-        return {}
-    (kb, pb), (kc, pc) = at["B"], at["C"]
-    return {kb: pc, kc: pb}
+    return (at["B"], at["C"]) if "B" in at and "C" in at else None
 
 
 def _judge_false_start(rows: list[list], k: int, st: MarkerState, radius: float) -> None:
