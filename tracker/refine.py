@@ -93,6 +93,9 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     its wire crosses; off for other markers, whose own stripes (a cone's tape) are
     theirs.
     ``hold_shape`` keeps the radius and edge width at ``init``'s (:func:`.disc.fit_disc`).
+    ``wire_line``: two points on the crank-slider's wire (px); a followed printed disc out
+    of focus (edge :data:`BAND_EDGE_PX` or more) that it crosses is fitted without the
+    band its shadow darkens (:func:`_wire_band`).
     Returns the centre and the chroma seen in its middle.
     """
     if rim is True and init is not None:
@@ -192,14 +195,21 @@ WIRE_HALF_PX = 1.0
 BAND_MOST = 0.5
 
 
-def _off_line(point: tuple[float, float],
-              line: tuple[tuple[float, float], tuple[float, float]]) -> float:
-    """Distance (px) from ``point`` to the line through the two points of ``line``."""
+def _across(x: NDArray | float, y: NDArray | float,
+            line: tuple[tuple[float, float], tuple[float, float]]) -> NDArray | float:
+    """Distance (px) of points ``x, y`` from the line through the two points of ``line``
+    (from its first point where the two coincide)."""
     (ax, ay), (bx, by) = line
     norm = float(np.hypot(bx - ax, by - ay))
     if norm < 1e-6:
-        return float(np.hypot(point[0] - ax, point[1] - ay))
-    return abs((point[0] - ax) * (by - ay) - (point[1] - ay) * (bx - ax)) / norm
+        return np.hypot(x - ax, y - ay)
+    return np.abs((x - ax) * (by - ay) - (y - ay) * (bx - ax)) / norm
+
+
+def _off_line(point: tuple[float, float],
+              line: tuple[tuple[float, float], tuple[float, float]]) -> float:
+    """Distance (px) from ``point`` to the line through the two points of ``line``."""
+    return float(_across(point[0], point[1], line))
 
 
 def _wire_band(shape: tuple[int, ...], x0: int, y0: int,
@@ -211,13 +221,11 @@ def _wire_band(shape: tuple[int, ...], x0: int, y0: int,
     ``radius``. Through B and C, the wire's ends, it runs through their centres, so what
     is left out is symmetric about them and pulls no fit aside; across A it leaves out
     what the wire darkens."""
-    (ax, ay), (bx, by) = line
-    norm = float(np.hypot(bx - ax, by - ay))
-    if norm < 1e-6:
+    if np.hypot(line[1][0] - line[0][0], line[1][1] - line[0][1]) < 1e-6:
         return np.zeros(shape[:2], bool)
     yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
-    across = ((xx + x0 - ax) * (by - ay) - (yy + y0 - ay) * (bx - ax)) / norm
-    return np.abs(across) <= min(WIRE_HALF_PX + BAND_EDGES * edge_px, BAND_MOST * radius)
+    return _across(xx + x0, yy + y0, line) <= min(WIRE_HALF_PX + BAND_EDGES * edge_px,
+                                                  BAND_MOST * radius)
 
 
 def _band_area(alpha: NDArray, band: NDArray, x0: int, y0: int,
