@@ -195,6 +195,13 @@ WIRE_HALF_PX = 1.0
 BAND_MOST = 0.5
 
 
+def wire_band_half_px(edge_px: float, radius: float) -> float:
+    """Half the width (px) of the wire's band across a printed disc whose edge is blurred
+    over ``edge_px`` (px), of ``radius`` px: :data:`WIRE_HALF_PX` + :data:`BAND_EDGES`
+    edge widths, at most :data:`BAND_MOST` of the radius."""
+    return min(WIRE_HALF_PX + BAND_EDGES * edge_px, BAND_MOST * radius)
+
+
 def _across(x: NDArray | float, y: NDArray | float,
             line: tuple[tuple[float, float], tuple[float, float]]) -> NDArray | float:
     """Distance (px) of points ``x, y`` from the line through the two points of ``line``
@@ -224,8 +231,7 @@ def _wire_band(shape: tuple[int, ...], x0: int, y0: int,
     if np.hypot(line[1][0] - line[0][0], line[1][1] - line[0][1]) < 1e-6:
         return np.zeros(shape[:2], bool)
     yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
-    return _across(xx + x0, yy + y0, line) <= min(WIRE_HALF_PX + BAND_EDGES * edge_px,
-                                                  BAND_MOST * radius)
+    return _across(xx + x0, yy + y0, line) <= wire_band_half_px(edge_px, radius)
 
 
 def _band_area(alpha: NDArray, band: NDArray, x0: int, y0: int,

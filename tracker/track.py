@@ -38,15 +38,7 @@ from .markers import (
     place_reach,
 )
 from .outline import shaded
-from .refine import (
-    BAND_EDGE_PX,
-    BAND_EDGES,
-    BAND_MOST,
-    WIRE_HALF_PX,
-    patch_around,
-    refine,
-    refine_blob,
-)
+from .refine import BAND_EDGE_PX, patch_around, refine, refine_blob, wire_band_half_px
 from .scatter import found_xy, repeated_frames, with_scatter_floor
 from .search import (
     balance_gains,
@@ -380,7 +372,7 @@ def _wire_band_px(centre: Centre) -> float:
     its shading is judged without when it is out of focus (0: in focus)."""
     if centre.params is None or centre.params[3] < BAND_EDGE_PX:
         return 0.0
-    return min(WIRE_HALF_PX + BAND_EDGES * centre.params[3], BAND_MOST * centre.radius)
+    return wire_band_half_px(centre.params[3], centre.radius)
 
 
 def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
