@@ -147,6 +147,29 @@ def test_a_blob_too_small_to_show_its_shape_is_no_strip():
     assert not Blob(5, 5, 12.6, 0.79, 1.0).elongated()  # a disc 4 px across
 
 
+@pytest.mark.parametrize("density", [0.02, 0.3, 0.6])
+def test_component_statistics_are_opencvs(density):
+    # The tracker gathers each blob's box, area and centroid itself (markers.components):
+    # they must be OpenCV's own connectedComponentsWithStats to the bit, on masks
+    # sparse and dense, with blobs cut by every edge of the image.
+    import cv2
+
+    from cranktrack.tracker.markers import components
+
+    rng = np.random.default_rng(int(density * 100))
+    noise = cv2.GaussianBlur(rng.random((97, 131)).astype(np.float32), (0, 0), 1.5)
+    mask = (noise > np.quantile(noise, 1 - density)).astype(np.uint8) * 255
+    n, labels, stats, centroids = components(mask)
+    n_cv, labels_cv, stats_cv, centroids_cv = cv2.connectedComponentsWithStats(mask,
+                                                                               connectivity=8)
+    assert n == n_cv > 5
+    assert np.array_equal(labels, labels_cv)
+    assert np.array_equal(stats[1:], stats_cv[1:])
+    assert np.array_equal(centroids[1:], centroids_cv[1:])
+    assert stats[0, cv2.CC_STAT_AREA] == stats_cv[0, cv2.CC_STAT_AREA]
+    assert components(np.zeros((4, 6), np.uint8))[0] == 1
+
+
 def test_colour_names_and_hues():
     assert MarkerSpec.from_colour("W", "yellow").hue_deg == 60.0
     assert MarkerSpec.from_colour("W", "200").hue_deg == 200.0
