@@ -50,6 +50,18 @@ FALSE_START_MISSES = 3
 #: still runs through its fixes from before the gap.
 KEEP_MOTION_MISSED = 2
 
+#: A frame whose light (:meth:`.video.Frame.light`) differs from its last fix's by more
+#: than this fraction has a marker whose fit failed fitted again with its colour scaled
+#: to match (:meth:`MarkerState.try_light`). Drawn discs lit 1.43 times brighter from
+#: one frame to the next were called partly covered from then on, and 2 times dimmer,
+#: never found again; a camera's exposure stepping that much over five frames lost
+#: them too, and a light flickering ±25 % lost every other frame. Within this, the
+#: gain's range and the colour's own drift take it, as before.
+LIGHT_STEP = 0.1
+#: ...where both frames have at least this much light (median luma, DN): the median
+#: of a dark frame (pucks on a black table) is its noise, not its light.
+LIGHT_FLOOR_DN = 20.0
+
 #: How far a marker's usual fitted gain may move the gains taken for it (a factor).
 GAIN_DRIFT = 1.5
 #: How much higher a gain is taken while a marker (not a flat disc) is learned. With an
@@ -167,7 +179,14 @@ class MarkerState:
     #: (:func:`.refine.refine_blob`). None for a disc; decided at the first
     #: acquisition.
     extent: tuple[float, float] | None = None
-    marker: NDArray | None = None  # learned marker chroma
+    marker: NDArray | None = None  # learned marker colour (RGB)
+    #: The light (:meth:`.video.Frame.light`, DN) of the frame of its last fix, and of
+    #: this frame (:meth:`in_light`).
+    light: float | None = None
+    frame_light: float | None = None
+    #: The factor the colour is fitted with on a second try in another light
+    #: (:meth:`try_light`); 1 otherwise.
+    lit: float = 1.0
     residual: float | None = None  # usual RMS residual of the disc fit
     area_alpha: float | None = None  # usual visible area Σα, px²
     peak: float | None = None  # usual α in the marker's middle (Centre.peak)
@@ -377,8 +396,37 @@ class MarkerState:
         if centre.params is not None and not centre.rim and np.isfinite(centre.params[3]):
             self.edges_seen.append(float(centre.params[3]))
         self.shape = centre.params
+        if self.lit != 1.0 and self.marker is not None:
+            # Found in another light (try_light): its colour is that light's from now.
+            self.marker, self.lit = self.marker * self.lit, 1.0
+        self.light = self.frame_light
         if seen is not None:
             self.marker = seen if self.marker is None else 0.9 * self.marker + 0.1 * seen
+
+    def in_light(self, light: float) -> None:
+        """Take this frame's light (:meth:`.video.Frame.light`, DN)."""
+        self.frame_light, self.lit = light, 1.0
+
+    def try_light(self) -> bool:
+        """Set the colour to be fitted with (:attr:`colour`) to the marker's own scaled
+        by how much this frame's light differs from its last fix's, where that is by
+        more than :data:`LIGHT_STEP`; say whether it did. For a second try where the
+        first fit, in the colour as learned, failed: a camera's exposure stepping, a
+        lamp flickering or switched on scales every colour in the frame. Only a second
+        try: a lit LED keeps its colour while the room around it darkens."""
+        if self.marker is None or self.light is None or self.frame_light is None \
+                or min(self.light, self.frame_light) < LIGHT_FLOOR_DN:
+            return False
+        ratio = self.frame_light / self.light
+        if abs(ratio - 1.0) <= LIGHT_STEP:
+            return False
+        self.lit = ratio
+        return True
+
+    @property
+    def colour(self) -> NDArray | None:
+        """The colour the marker is fitted with: ``marker`` times ``lit``."""
+        return self.marker if self.marker is None or self.lit == 1.0 else self.marker * self.lit
 
     def predict(self, t: float) -> tuple[float, float] | None:
         """Where the marker should be at ``t`` (px), from its last fixes: a parabola

@@ -139,7 +139,7 @@ def _held_at(frame: Frame, state: MarkerState, at: tuple[float, float], reach: f
     """The marker's fit from ``at`` (px) with its radius and edge held at its last free
     fit's, if it lies within ``reach`` px of ``at`` and stands out :data:`HELD_CLEAR`
     times over its residual; else None."""
-    centre, seen = refine(frame, at, state.radius, state.marker, init=state.shape,
+    centre, seen = refine(frame, at, state.radius, state.colour, init=state.shape,
                           luminance=luminance, rim=False, wire=state.spec.flat,
                           hold_shape=True)
     if not (np.hypot(centre.x - at[0], centre.y - at[1]) <= reach
@@ -208,20 +208,13 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
             # Following: refine straight from the prediction; the colour search
             # is only needed when that fails (fast motion, occlusion, a jump).
             if _clear_of_edge(frame, r, *pred):
-                luminance = bool(state.spec.tone)
-                held = False
-                if state.extent is not None:
-                    centre, seen = _blob_centre(frame, state, pred, state.motion_px() + 1.0)
-                    plausible = _plausible(centre, pred, state)
-                else:
-                    centre, seen = refine(frame, pred, r, state.marker, init=state.shape,
-                                          luminance=luminance, rim=state.rim,
-                                          wire=state.spec.flat, wire_line=wire_line)
-                    plausible = _plausible(centre, pred, state)
-                    again = None if plausible else _held_fit(frame, state, pred, luminance)
-                    if again is not None:
-                        (centre, seen), held = again, True
-                        plausible = _plausible(centre, pred, state)
+                centre, seen, held, plausible = _followed(frame, state, pred, wire_line)
+                if not (plausible and state.whole(centre)) and state.try_light():
+                    second = _followed(frame, state, pred, wire_line)
+                    if second[3] and state.whole(second[0]):
+                        centre, seen, held, plausible = second
+                    else:
+                        state.lit = 1.0
                 if plausible:
                     if not state.whole(centre):
                         return None, "partly_covered"
@@ -253,7 +246,7 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
             blob = state.placed_failed if pred is None else None
             if blob is None:
                 return None, status if status == "out_of_view" else full_status
-    centre, seen, failure = _refine_blob(frame, state, blob, hsv_cache)
+    centre, seen, failure = _refine_blob_in_light(frame, state, blob, hsv_cache)
     if pred is None and state.spec.near_px is not None:
         # A placed marker not yet found, whose blob by its place was found but not
         # fitted: where no blob is found later (its colour merged with its
@@ -269,7 +262,7 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
         # as after a whole-frame search.
         wide = whole_frame or len(state.history) < 2
         for other in other_blobs(frame, state, hsv_cache, pred, blob, wide):
-            centre, seen, failure = _refine_blob(frame, state, other, hsv_cache)
+            centre, seen, failure = _refine_blob_in_light(frame, state, other, hsv_cache)
             if not failure:
                 break
     elif not failure and whole_frame and len(state.history) == 1 and state.radius:
@@ -283,6 +276,40 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
         state.radius = centre.radius
     state.remember(centre, seen, frame.index)
     return centre, "ok"
+
+
+def _followed(frame: Frame, state: MarkerState, pred: tuple[float, float],
+              wire_line: tuple[tuple[float, float], tuple[float, float]] | None
+              ) -> tuple[Centre, NDArray | None, bool, bool]:
+    """A followed marker's fit at its prediction ``pred`` (px), in its colour
+    (:attr:`.MarkerState.colour`): the centre, what it saw, whether it is the held fit
+    (:func:`_held_fit`), and whether it is plausible (:func:`_plausible`)."""
+    luminance = bool(state.spec.tone)
+    if state.extent is not None:
+        centre, seen = _blob_centre(frame, state, pred, state.motion_px() + 1.0)
+        return centre, seen, False, _plausible(centre, pred, state)
+    centre, seen = refine(frame, pred, state.radius, state.colour, init=state.shape,
+                          luminance=luminance, rim=state.rim, wire=state.spec.flat,
+                          wire_line=wire_line)
+    plausible = _plausible(centre, pred, state)
+    again = None if plausible else _held_fit(frame, state, pred, luminance)
+    if again is None:
+        return centre, seen, False, plausible
+    return *again, True, _plausible(again[0], pred, state)
+
+
+def _refine_blob_in_light(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
+                          ) -> tuple[Centre | None, NDArray | None, str]:
+    """:func:`_refine_blob`, and where it failed in a frame lit otherwise than the
+    marker's last fix, again in that light (:meth:`.MarkerState.try_light`)."""
+    first = _refine_blob(frame, state, blob, hsv_cache)
+    if not first[2] or not state.try_light():
+        return first
+    second = _refine_blob(frame, state, blob, hsv_cache)
+    if second[2]:
+        state.lit = 1.0
+        return first
+    return second
 
 
 def _placed_rival(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict) -> bool:
@@ -392,7 +419,7 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
     if state.extent is not None:
         centre, seen = _blob_centre(frame, state, (blob.x, blob.y), 2.0)
         return _whole_and_honest(state, centre, seen)
-    centre, seen = refine(frame, (blob.x, blob.y), radius, state.marker, luminance=luminance,
+    centre, seen = refine(frame, (blob.x, blob.y), radius, state.colour, luminance=luminance,
                           rim=state.rim, wire=state.spec.flat)
     if (state.rim is None or state.spec.flat) and centre.ok:
         # A flat marker's coverage is even over its middle; a shaded ball's falls
@@ -401,7 +428,7 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
         # later is not taken for a ball: its rim would be half the cover's edge).
         patch, x0, y0 = patch_around(frame, centre.x, centre.y, centre.radius + 9)
         alpha, _ = local_coverage(patch, x0, y0, (centre.x, centre.y), centre.radius,
-                                  state.marker, luminance)
+                                  state.colour, luminance)
         # The crank-slider's wire is tied at B and may cross A: on a printed disc a
         # dark line is the wire, not shading.
         ball = shaded(alpha, x0, y0, (centre.x, centre.y), centre.radius,
@@ -422,7 +449,7 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
                             _whole_or_refitted(frame, state, centre, seen, radius, luminance))
         state.rim = ball
         if state.rim and not centre.rim:
-            centre, seen = refine(frame, (centre.x, centre.y), radius, state.marker,
+            centre, seen = refine(frame, (centre.x, centre.y), radius, state.colour,
                                   luminance=luminance, rim=True)
         elif not state.rim and centre.rim:
             return None, None, "refine_failed"  # a flat marker's disc fit failed
@@ -476,7 +503,7 @@ def _whole_or_refitted(frame: Frame, state: MarkerState, centre: Centre,
     if first[2] != "partly_covered" or centre.rim or state.shape is None \
             or len(state.shape) < 3:
         return first
-    again, seen_again = refine(frame, (centre.x, centre.y), radius, state.marker,
+    again, seen_again = refine(frame, (centre.x, centre.y), radius, state.colour,
                                init=(centre.x, centre.y, *state.shape[2:]),
                                luminance=luminance, rim=state.rim, wire=state.spec.flat)
     second = _whole_and_honest(state, again, seen_again) if again.ok else first
@@ -490,7 +517,7 @@ def _blob_centre(frame: Frame, state: MarkerState, guess: tuple[float, float],
     is as long as the motion in the exposure, at most a step)."""
     length, width = state.extent
     return refine_blob(frame, guess, reach_px, length + 0.5 * state.speed_px(), width,
-                       state.marker, bool(state.spec.tone))
+                       state.colour, bool(state.spec.tone))
 
 
 #: A blob whose coverage is longer than wide by this (its second moments) is a
@@ -704,6 +731,9 @@ def _locate_markers(frame: Frame, state: TrackerState) -> list:
     found: list[tuple[MarkerState, Centre]] = []
     predictions = [st.predict(frame.t_s) for st in state.markers]
     wire_line = _wire_line(state.markers, predictions)
+    light = frame.light()
+    for st in state.markers:
+        st.in_light(light)
     for k, st in enumerate(state.markers):
         predicted = predictions[k]
         centre, status = _locate(frame, st, frame.t_s, hsv_cache, predicted,

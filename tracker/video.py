@@ -91,6 +91,19 @@ class Frame:
             return _i420_to_rgb(*self._planes(), 0, 0, w, h, self.full_range)
         return self.pixels
 
+    def light(self) -> float:
+        """How much light the frame holds: the median luma (BT.601, 0-255 above black)
+        of every 16th pixel of every 16th row, DN. A camera's exposure or a lamp's
+        flicker moves it; a marker crossing the frame does not."""
+        if self.layout == "i420":
+            luma = self.pixels[:self.size[1]:16, ::16].astype(np.float32)
+            if not self.full_range:
+                luma = (luma - 16.0) * (255.0 / 219.0)
+        else:
+            rgb = self.pixels[::16, ::16].astype(np.float32)
+            luma = rgb @ np.array([0.299, 0.587, 0.114], np.float32)
+        return float(np.median(luma))
+
     def region(self, x0: int, y0: int, x1: int, y1: int) -> NDArray[np.uint8]:
         """RGB pixels of columns x0…x1−1 and rows y0…y1−1 (inside the frame)."""
         if self.layout != "i420" or "rgb" in self.__dict__:
