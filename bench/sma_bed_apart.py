@@ -37,9 +37,11 @@ px per axis, the largest, its σ and the fraction within ±1σ), and θ's and ω
 error and ±1σ coverage against the truth, over the frames where they were measured.
 
 ``--no-wire`` draws the same bed without the wire, to tell its share of the error from
-the bar's and the codec's.
+the bar's and the codec's. ``--flicker F`` lights the bed by a lamp on the mains whose
+light swings by F either way at 100 Hz.
 
     .venv/bin/python bench/sma_bed_apart.py [--seeds 3] [--case N] [--keep DIR] [--no-wire]
+        [--lens-blur PX] [--noise DN] [--crf N] [--flicker F]
 """
 
 from __future__ import annotations
@@ -170,17 +172,31 @@ def draw(background: NDArray[np.float32], theta_deg: float, wire: bool = True
 @dataclass(frozen=True)
 class Camera:
     """What the camera does to the picture: its lens's blur (σ, frame px), its sensor's
-    noise (σ, DN) and its H.264 quality (crf)."""
+    noise (σ, DN), its H.264 quality (crf), and the room's lamp: its light swings by
+    ``flicker`` (a fraction) either way at twice the mains frequency, :data:`MAINS_HZ`
+    (:func:`lamp`)."""
 
     lens_blur_px: float = LENS_BLUR_PX
     noise_dn: float = NOISE_DN
     crf: int = 20
+    flicker: float = 0.0
 
     def tag(self) -> str:
         """A file-name suffix for a camera other than the default one."""
         return "".join(f"_{k}{v:g}" for k, v, d in (
             ("blur", self.lens_blur_px, LENS_BLUR_PX), ("noise", self.noise_dn, NOISE_DN),
-            ("crf", self.crf, 20)) if v != d)
+            ("crf", self.crf, 20), ("flicker", self.flicker, 0.0)) if v != d)
+
+
+#: The mains frequency, Hz: a lamp on it flickers at twice this.
+MAINS_HZ = 50.0
+
+
+def lamp(times: NDArray, flicker: float) -> float:
+    """The lamp's light over an exposure sampled at ``times`` (s), relative to its mean:
+    1 + ``flicker``·cos(2π·2·:data:`MAINS_HZ`·t), averaged. Filmed at 30 fps with a short
+    exposure, a 100 Hz flicker is seen at 10 Hz: light 1 + f, 1 − f/2, 1 − f/2, …"""
+    return float(np.mean(1.0 + flicker * np.cos(2.0 * np.pi * 2.0 * MAINS_HZ * times)))
 
 
 def frame(background: NDArray[np.float32], heating: Heating, t: float, exposure_s: float,
@@ -192,6 +208,7 @@ def frame(background: NDArray[np.float32], heating: Heating, t: float, exposure_
         (np.arange(EXPOSURE_SAMPLES) + 0.5) / EXPOSURE_SAMPLES - 0.5)
     theta, _ = heating.theta(np.asarray(times))
     acc = sum(draw(background, th, wire) for th in theta) / len(theta)
+    acc = acc * lamp(np.asarray(times), camera.flicker)
     acc = cv2.GaussianBlur(acc, (0, 0), camera.lens_blur_px * SUPERSAMPLE)
     small = cv2.resize(acc, SIZE, interpolation=cv2.INTER_AREA)
     small = small + rng.normal(0, camera.noise_dn, small.shape)
@@ -307,17 +324,22 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--crf", type=int, default=20,
                         help="H.264's quality: 18 is near lossless, 28 a phone's, 35 poor "
                              "(default 20)")
+    parser.add_argument("--flicker", type=float, default=0.0,
+                        help="the lamp's light swings by this fraction either way at "
+                             f"{2 * MAINS_HZ:g} Hz (default 0: a steady light)")
     args = parser.parse_args(argv)
     print(f"libraries: {versions_line()}")
     cases = [CASES[i] for i in args.case] if args.case else list(CASES)
-    camera = Camera(args.lens_blur, args.noise, args.crf)
+    camera = Camera(args.lens_blur, args.noise, args.crf, args.flicker)
     print(f"SMA bed, second renderer: {SIZE[0]}×{SIZE[1]}, {args.fps:g} fps, {args.seconds:g} s, "
           f"{PX_PER_MM} px/mm, markers {MARKER_MM:g} mm ({MARKER_MM * PX_PER_MM / 2:.1f} px "
           f"radius), noise {camera.noise_dn:g} DN, H.264 crf {camera.crf}; {args.seeds} seeds "
           "per case"
           + ("; no wire drawn" if args.no_wire else "")
           + (f"; lens blur {camera.lens_blur_px:g} px"
-             if camera.lens_blur_px != LENS_BLUR_PX else ""))
+             if camera.lens_blur_px != LENS_BLUR_PX else "")
+          + (f"; lamp flicker ±{camera.flicker:.0%} at {2 * MAINS_HZ:g} Hz"
+             if camera.flicker else ""))
     for case in cases:
         rows = []
         for seed in range(args.seeds):

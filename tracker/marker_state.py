@@ -58,6 +58,13 @@ KEEP_MOTION_MISSED = 2
 #: them too, and a light flickering ±25 % lost every other frame. Within this, the
 #: gain's range and the colour's own drift take it, as before.
 LIGHT_STEP = 0.1
+#: Where the fits in both colours pass, the one in this frame's light is taken only if
+#: the light changed by more than this (log of its factor, 1.35×) and its gain is
+#: nearer the usual: yupi's LED, a light of its own, showed gains of 0.97–1.48 on the
+#: move while the room darkened by 13–17 %, and taken in the room's light its colour
+#: went wrong (3 frames lost). A lamp flickering ±30 % (bench/sma_bed_apart.py
+#: --flicker 0.3) changes the light by 1.5× between frames.
+LIGHT_SURE = 0.3
 #: ...where both frames have at least this much light (median luma, DN): the median
 #: of a dark frame (pucks on a black table) is its noise, not its light.
 LIGHT_FLOOR_DN = 20.0
@@ -180,8 +187,8 @@ class MarkerState:
     #: acquisition.
     extent: tuple[float, float] | None = None
     marker: NDArray | None = None  # learned marker colour (RGB)
-    #: The light (:meth:`.video.Frame.light`, DN) of the frame of its last fix, and of
-    #: this frame (:meth:`in_light`).
+    #: The light (:meth:`.video.Frame.light`, DN) its colour was seen in (weighed over
+    #: its fixes as the colour is), and this frame's (:meth:`in_light`).
     light: float | None = None
     frame_light: float | None = None
     #: The factor the colour is fitted with on a second try in another light
@@ -398,10 +405,13 @@ class MarkerState:
         self.shape = centre.params
         if self.lit != 1.0 and self.marker is not None:
             # Found in another light (try_light): its colour is that light's from now.
-            self.marker, self.lit = self.marker * self.lit, 1.0
-        self.light = self.frame_light
+            self.marker, self.light, self.lit = self.marker * self.lit, self.frame_light, 1.0
         if seen is not None:
             self.marker = seen if self.marker is None else 0.9 * self.marker + 0.1 * seen
+            # The light the colour was seen in, weighed as the colour is.
+            if self.frame_light is not None:
+                self.light = (self.frame_light if self.light is None
+                              else 0.9 * self.light + 0.1 * self.frame_light)
 
     def in_light(self, light: float) -> None:
         """Take this frame's light (:meth:`.video.Frame.light`, DN)."""
@@ -409,11 +419,11 @@ class MarkerState:
 
     def try_light(self) -> bool:
         """Set the colour to be fitted with (:attr:`colour`) to the marker's own scaled
-        by how much this frame's light differs from its last fix's, where that is by
-        more than :data:`LIGHT_STEP`; say whether it did. For a second try where the
-        first fit, in the colour as learned, failed: a camera's exposure stepping, a
-        lamp flickering or switched on scales every colour in the frame. Only a second
-        try: a lit LED keeps its colour while the room around it darkens."""
+        by how much this frame's light differs from the light it was seen in, where
+        that is by more than :data:`LIGHT_STEP`; say whether it did. For a second fit
+        beside the one in the colour as learned: a camera's exposure stepping, a lamp
+        flickering or switched on scales every colour in the frame; but a lit LED keeps
+        its colour while the room around it darkens."""
         if self.marker is None or self.light is None or self.frame_light is None \
                 or min(self.light, self.frame_light) < LIGHT_FLOOR_DN:
             return False

@@ -26,7 +26,14 @@ from ..errors import CranktrackError
 from ..tables import tracker_columns
 from .centre import Centre
 from .coverage import local_coverage
-from .marker_state import KEEP_MOTION_MISSED, REST_REACH, REST_STEP, MarkerState, focus_notes
+from .marker_state import (
+    KEEP_MOTION_MISSED,
+    LIGHT_SURE,
+    REST_REACH,
+    REST_STEP,
+    MarkerState,
+    focus_notes,
+)
 from .markers import (
     DEFAULT_MARKERS,
     Blob,
@@ -209,9 +216,10 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
             # is only needed when that fails (fast motion, occlusion, a jump).
             if _clear_of_edge(frame, r, *pred):
                 centre, seen, held, plausible = _followed(frame, state, pred, wire_line)
-                if not (plausible and state.whole(centre)) and state.try_light():
+                if state.try_light():
                     second = _followed(frame, state, pred, wire_line)
-                    if second[3] and state.whole(second[0]):
+                    if _likelier_lit(state, second[0], second[3] and state.whole(second[0]),
+                                     centre, plausible and state.whole(centre)):
                         centre, seen, held, plausible = second
                     else:
                         state.lit = 1.0
@@ -300,16 +308,35 @@ def _followed(frame: Frame, state: MarkerState, pred: tuple[float, float],
 
 def _refine_blob_in_light(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
                           ) -> tuple[Centre | None, NDArray | None, str]:
-    """:func:`_refine_blob`, and where it failed in a frame lit otherwise than the
-    marker's last fix, again in that light (:meth:`.MarkerState.try_light`)."""
+    """:func:`_refine_blob`, and in a frame lit otherwise than the marker's colour was
+    seen in, again in this frame's light (:meth:`.MarkerState.try_light`), taken where
+    :func:`_likelier_lit`."""
     first = _refine_blob(frame, state, blob, hsv_cache)
-    if not first[2] or not state.try_light():
+    if not state.try_light():
         return first
     second = _refine_blob(frame, state, blob, hsv_cache)
-    if second[2]:
-        state.lit = 1.0
-        return first
-    return second
+    if _likelier_lit(state, second[0], not second[2], first[0], not first[2]):
+        return second
+    state.lit = 1.0
+    return first
+
+
+def _likelier_lit(state: MarkerState, lit: Centre | None, lit_ok: bool,
+                  plain: Centre | None, plain_ok: bool) -> bool:
+    """Is the fit in this frame's light (``lit``) the marker, rather than the one in its
+    colour as learned (``plain``)? Where only one passed its checks, that one; where
+    both did and the light changed by more than :data:`LIGHT_SURE`, the one whose gain
+    is nearer the marker's usual: a marker lit by the room shows its usual gain in the
+    room's light, an LED in its own colour."""
+    if lit_ok != plain_ok:
+        return lit_ok
+    if not lit_ok or abs(np.log(state.lit)) < LIGHT_SURE:
+        return False
+    usual = state.gain or 1.0
+
+    def off(c: Centre) -> float:
+        return abs(np.log(c.gain / usual)) if np.isfinite(c.gain) and c.gain > 0 else np.inf
+    return off(lit) < off(plain)
 
 
 def _placed_rival(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict) -> bool:
