@@ -96,13 +96,11 @@ class Frame:
         of every 16th pixel of every 16th row, DN. A camera's exposure or a lamp's
         flicker moves it; a marker crossing the frame does not."""
         if self.layout == "i420":
-            luma = self.pixels[:self.size[1]:16, ::16].astype(np.float32)
-            if not self.full_range:
-                luma = (luma - 16.0) * (255.0 / 219.0)
-        else:
-            rgb = self.pixels[::16, ::16].astype(np.float32)
-            luma = rgb @ np.array([0.299, 0.587, 0.114], np.float32)
-        return float(np.median(luma))
+            # The median of the codes, then their levels: a median commutes with them.
+            median = float(np.median(self.pixels[:self.size[1]:16, ::16]))
+            return median if self.full_range else (median - 16.0) * (255.0 / 219.0)
+        rgb = self.pixels[::16, ::16].astype(np.float32)
+        return float(np.median(rgb @ np.array([0.299, 0.587, 0.114], np.float32)))
 
     def region(self, x0: int, y0: int, x1: int, y1: int) -> NDArray[np.uint8]:
         """RGB pixels of columns x0…x1−1 and rows y0…y1−1 (inside the frame)."""
