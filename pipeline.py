@@ -89,7 +89,8 @@ def _load_state(path: Path, video: str | os.PathLike, roi: Roi | None = None) ->
     # since (a marker's motion, shape, usual gain): resuming it would fail mid-run.
     wanted = {f.name for f in fields(MarkerState)}
     markers = getattr(state, "markers", None)
-    if markers is None or any(not wanted <= set(vars(st)) for st in markers):
+    if markers is None or any(not wanted <= set(vars(st)) for st in markers) \
+            or not {f.name for f in fields(TrackerState)} <= set(vars(state)):
         raise CranktrackError(f"{path} was saved by an older cranktrack; run again without "
                               "--resume")
     if saved.get("video") != str(Path(video).resolve()):

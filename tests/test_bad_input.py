@@ -434,9 +434,12 @@ def test_ctrl_c_while_the_command_line_loads_is_one_sentence(monkeypatch, capsys
     assert err == "cranktrack: interrupted while starting; nothing was written"
 
 
-def test_a_state_saved_by_an_older_cranktrack_is_refused_in_one_sentence(small_h264, tmp_path):
-    # The tracker keeps more for each marker than it once did (its motion, shape and
-    # usual gain): a state saved before that would fail mid-run on --resume.
+@pytest.mark.parametrize("older", ["marker", "tracker"])
+def test_a_state_saved_by_an_older_cranktrack_is_refused_in_one_sentence(small_h264, tmp_path,
+                                                                         older):
+    # The tracker keeps more than it once did (for each marker its motion, shape and
+    # usual gain; for the run each frame's light): a state saved before that would fail
+    # mid-run on --resume.
     import pickle
 
     from cranktrack.pipeline import track_run
@@ -449,8 +452,11 @@ def test_a_state_saved_by_an_older_cranktrack_is_refused_in_one_sentence(small_h
         track_run(small_h264.video, tmp_path, ("A", "C", 160.8), on_frame=interrupt)
     path = tmp_path / ".tracker_state.pkl"
     saved = pickle.loads(path.read_bytes())
-    for st in saved["state"].markers:
-        del st.surprise_px  # as an older version had no such field
+    if older == "marker":
+        for st in saved["state"].markers:
+            del st.surprise_px  # as an older version had no such field
+    else:
+        del saved["state"].lights
     path.write_bytes(pickle.dumps(saved))
     p = _run("track", str(small_h264.video), "--out", str(tmp_path), "--known-length",
              "A-C=160.8", "--resume")

@@ -13,6 +13,7 @@ MODULES = [
     "cranktrack.kinematics.differentiate",
     "cranktrack.tracker.track",
     "cranktrack.tracker.scatter",
+    "cranktrack.tracker.lighting",
     "cranktrack.api",
 ]
 

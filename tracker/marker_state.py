@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .centre import Centre
+from .lighting import LIGHT_STEP, light_ratio
 from .markers import AREA_GATE, Blob, MarkerSpec, place_reach
 from .scatter import STAIR_RATIO
 
@@ -49,25 +50,6 @@ FALSE_START_MISSES = 3
 #: A marker missed for at most this many frames keeps its motion: the prediction
 #: still runs through its fixes from before the gap.
 KEEP_MOTION_MISSED = 2
-
-#: A frame whose light (:meth:`.video.Frame.light`) differs from its last fix's by more
-#: than this fraction has a marker whose fit failed fitted again with its colour scaled
-#: to match (:meth:`MarkerState.try_light`). Drawn discs lit 1.43 times brighter from
-#: one frame to the next were called partly covered from then on, and 2 times dimmer,
-#: never found again; a camera's exposure stepping that much over five frames lost
-#: them too, and a light flickering ±25 % lost every other frame. Within this, the
-#: gain's range and the colour's own drift take it, as before.
-LIGHT_STEP = 0.1
-#: Where the fits in both colours pass, the one in this frame's light is taken only if
-#: the light changed by more than this (log of its factor, 1.35×) and its gain is
-#: nearer the usual: yupi's LED, a light of its own, showed gains of 0.97–1.48 on the
-#: move while the room darkened by 13–17 %, and taken in the room's light its colour
-#: went wrong (3 frames lost). A lamp flickering ±30 % (bench/sma_bed_apart.py
-#: --flicker 0.3) changes the light by 1.5× between frames.
-LIGHT_SURE = 0.3
-#: ...where both frames have at least this much light (median luma, DN): the median
-#: of a dark frame (pucks on a black table) is its noise, not its light.
-LIGHT_FLOOR_DN = 20.0
 
 #: How far a marker's usual fitted gain may move the gains taken for it (a factor).
 GAIN_DRIFT = 1.5
@@ -424,11 +406,9 @@ class MarkerState:
         beside the one in the colour as learned: a camera's exposure stepping, a lamp
         flickering or switched on scales every colour in the frame; but a lit LED keeps
         its colour while the room around it darkens."""
-        if self.marker is None or self.light is None or self.frame_light is None \
-                or min(self.light, self.frame_light) < LIGHT_FLOOR_DN:
-            return False
-        ratio = self.frame_light / self.light
-        if abs(ratio - 1.0) <= LIGHT_STEP:
+        ratio = (None if self.marker is None or self.light is None or self.frame_light is None
+                 else light_ratio(self.frame_light, self.light))
+        if ratio is None or abs(ratio - 1.0) <= LIGHT_STEP:
             return False
         self.lit = ratio
         return True

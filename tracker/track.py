@@ -26,9 +26,9 @@ from ..errors import CranktrackError
 from ..tables import tracker_columns
 from .centre import Centre
 from .coverage import local_coverage
+from .lighting import LIGHT_SURE, lighting_notes
 from .marker_state import (
     KEEP_MOTION_MISSED,
-    LIGHT_SURE,
     REST_REACH,
     REST_STEP,
     MarkerState,
@@ -696,6 +696,8 @@ class TrackerState:
     markers: list[MarkerState]
     balance: dict
     rows: list[list]
+    #: Each tracked frame's light (:meth:`.video.Frame.light`, DN), in order.
+    lights: list[float] = field(default_factory=list)
 
     @classmethod
     def start(cls, specs: Sequence[MarkerSpec] = DEFAULT_MARKERS) -> TrackerState:
@@ -759,6 +761,7 @@ def _locate_markers(frame: Frame, state: TrackerState) -> list:
     predictions = [st.predict(frame.t_s) for st in state.markers]
     wire_line = _wire_line(state.markers, predictions)
     light = frame.light()
+    state.lights.append(light)
     for st in state.markers:
         st.in_light(light)
     for k, st in enumerate(state.markers):
@@ -1032,6 +1035,6 @@ def track(
     notes = [n for st in state.markers for n in st.notes] + stair_notes(tracks, specs)
     notes += [note for st in state.markers if found[st.spec.name] == 0
               and (note := st.never_found_note())]
-    notes += focus_notes(state.markers, found)
+    notes += focus_notes(state.markers, found) + lighting_notes(state.lights)
     return TrackResult(tracks, timing_report(tracks["t_s"].to_numpy(), source.nominal_fps),
                        found, list(source.problems) + notes, learned, state)

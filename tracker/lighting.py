@@ -1,0 +1,76 @@
+"""The light of the frames: how much it changes from frame to frame, and when a
+marker is fitted again in this frame's light.
+
+A camera's exposure stepping, a lamp on the mains flickering into a short
+exposure, or a light switched on scales every colour in the frame. A marker is
+fitted in the colour it was learned in; where the frame's light
+(:meth:`.video.Frame.light`) has moved from the light that colour was seen in by
+more than :data:`LIGHT_STEP`, it is fitted again with its colour scaled by the
+change (:meth:`.marker_state.MarkerState.try_light`). A run says when the light
+moved so between frames (:func:`lighting_notes`).
+
+>>> flicker = [130.0, 85.0, 85.0] * 20  # a lamp at 100 Hz filmed at 30 fps
+>>> print(lighting_notes(flicker)[0][:96])
+the light of the frames changed by more than 10 % from one frame to the next 39 times in 60 fram
+>>> lighting_notes([100.0] * 50)
+[]
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from itertools import pairwise
+
+import numpy as np
+
+#: A frame whose light differs from the light a marker's colour was seen in by more
+#: than this fraction has the marker fitted a second time, with its colour scaled to
+#: match (:meth:`.marker_state.MarkerState.try_light`). Drawn discs lit 1.43 times
+#: brighter from one frame to the next were called partly covered from then on, and
+#: 2 times dimmer, never found again; a camera's exposure stepping that much over five
+#: frames lost them too, and a light flickering ±25 % lost every other frame. Within
+#: this, the gain's range and the colour's own drift take it, as before.
+LIGHT_STEP = 0.1
+#: Where the fits in both colours pass, the one in this frame's light is taken only if
+#: the light changed by more than this (log of its factor, 1.35×) and its gain is
+#: nearer the usual: yupi's LED, a light of its own, showed gains of 0.97–1.48 on the
+#: move while the room darkened by 13–17 %, and taken in the room's light its colour
+#: went wrong (3 frames lost). A lamp flickering ±30 % (bench/sma_bed_apart.py
+#: --flicker 0.3) changes the light by 1.5× between frames.
+LIGHT_SURE = 0.3
+#: The light is compared only where both frames have at least this much (median luma,
+#: DN): the median of a dark frame (pucks on a black table) is its noise, not its light.
+LIGHT_FLOOR_DN = 20.0
+#: A run says the light changed where it stepped by more than :data:`LIGHT_STEP` between
+#: neighbouring frames in at least this share of them, or by more than
+#: :data:`LIGHT_SURE` once.
+FLICKER_SHARE = 0.05
+
+
+def light_ratio(now: float, then: float) -> float | None:
+    """``now`` over ``then`` (frame lights, DN); None where either is under
+    :data:`LIGHT_FLOOR_DN`."""
+    if min(now, then) < LIGHT_FLOOR_DN:
+        return None
+    return now / then
+
+
+def lighting_notes(lights: Sequence[float]) -> list[str]:
+    """What a user should hear of the light of a run's frames (DN, one per frame, in
+    order): where it stepped between neighbouring frames, how often and how far, what
+    the tracker did, and how to avoid it. Empty where it held steady."""
+    steps = [r for a, b in pairwise(lights)
+             if (r := light_ratio(b, a)) is not None]
+    if not steps:
+        return []
+    change = np.abs(np.log(steps))
+    stepped = int(np.sum(change > np.log1p(LIGHT_STEP)))
+    largest = float(np.exp(change.max()))
+    if stepped < max(1, FLICKER_SHARE * len(steps)) and change.max() <= LIGHT_SURE:
+        return []
+    return [f"the light of the frames changed by more than {100 * LIGHT_STEP:.0f} % from one frame "
+            f"to the next {stepped} times in {len(lights)} frames (at most "
+            f"{largest:.2f}×): a lamp on the mains flickering into a short exposure, or "
+            "the camera's exposure or a light changing; each marker was fitted again in "
+            "its frame's light. An exposure of 1/50 s or 1/60 s (whole flicker periods), "
+            "a lamp on DC or a fixed exposure avoids it"]
