@@ -1,18 +1,18 @@
 """The light of the frames: how much it changes from frame to frame, and when a
 marker is fitted again in this frame's light.
 
-A camera's exposure stepping, a lamp on the mains flickering into a short
-exposure, or a light switched on scales every colour in the frame. A marker is
-fitted in the colour it was learned in; where the frame's light
-(:meth:`.video.Frame.light`) has moved from the light that colour was seen in by
-more than :data:`LIGHT_STEP`, it is fitted again with its colour scaled by the
-change (:meth:`.marker_state.MarkerState.try_light`). A run says when the light
-moved so between frames (:func:`lighting_notes`).
+A camera's exposure or white balance stepping, a lamp on the mains flickering into
+a short exposure, or a light switched on scales every colour channel in the frame.
+A marker is fitted in the colour it was learned in; where the frame's light
+(:meth:`.video.Frame.light`, per channel) has moved from the light that colour was
+seen in by more than :data:`LIGHT_STEP`, it is fitted again with its colour scaled
+channel by channel by the change (:meth:`.marker_state.MarkerState.try_light`). A
+run says when the light moved so between frames (:func:`lighting_notes`).
 
->>> flicker = [130.0, 85.0, 85.0] * 20  # a lamp at 100 Hz filmed at 30 fps
+>>> flicker = [np.full(3, v) for v in [130.0, 85.0, 85.0] * 20]  # 100 Hz filmed at 30 fps
 >>> print(lighting_notes(flicker)[0][:96])
 the light of the frames changed by more than 10 % from one frame to the next 39 times in 60 fram
->>> lighting_notes([100.0] * 50)
+>>> lighting_notes([np.array([120.0, 100.0, 90.0])] * 50)
 []
 """
 
@@ -22,6 +22,7 @@ from collections.abc import Sequence
 from itertools import pairwise
 
 import numpy as np
+from numpy.typing import NDArray
 
 #: A frame whose light differs from the light a marker's colour was seen in by more
 #: than this fraction has the marker fitted a second time, with its colour scaled to
@@ -47,30 +48,45 @@ LIGHT_FLOOR_DN = 20.0
 FLICKER_SHARE = 0.05
 
 
-def light_ratio(now: float, then: float) -> float | None:
-    """``now`` over ``then`` (frame lights, DN); None where either is under
-    :data:`LIGHT_FLOOR_DN`."""
-    if min(now, then) < LIGHT_FLOOR_DN:
+#: BT.601's weights of R, G and B in the luma.
+LUMA_WEIGHTS = np.array([0.299, 0.587, 0.114])
+
+
+def light_ratio(now: NDArray, then: NDArray) -> NDArray[np.float64] | None:
+    """Per channel (R, G, B), ``now`` over ``then`` (frame lights, DN). A channel with
+    less than :data:`LIGHT_FLOOR_DN` in either takes the luma's ratio; None where the
+    luma has less than that too."""
+    now, then = np.asarray(now, np.float64), np.asarray(then, np.float64)
+    luma_now, luma_then = float(LUMA_WEIGHTS @ now), float(LUMA_WEIGHTS @ then)
+    if min(luma_now, luma_then) < LIGHT_FLOOR_DN:
         return None
-    return now / then
+    lit = np.minimum(now, then) >= LIGHT_FLOOR_DN
+    return np.where(lit, now / np.maximum(then, 1e-9), luma_now / luma_then)
 
 
-def lighting_notes(lights: Sequence[float]) -> list[str]:
-    """What a user should hear of the light of a run's frames (DN, one per frame, in
-    order): where it stepped between neighbouring frames, how often and how far, what
-    the tracker did, and how to avoid it. Empty where it held steady."""
-    steps = [r for a, b in pairwise(lights)
+def light_change(ratio: NDArray) -> float:
+    """How far a per-channel ratio of lights is from none: the largest |log| of its
+    channels."""
+    return float(np.max(np.abs(np.log(ratio))))
+
+
+def lighting_notes(lights: Sequence[NDArray]) -> list[str]:
+    """What a user should hear of the light of a run's frames (R, G, B in DN, one per
+    frame, in order): where it stepped between neighbouring frames, how often and how
+    far, what the tracker did, and how to avoid it. Empty where it held steady."""
+    steps = [light_change(r) for a, b in pairwise(lights)
              if (r := light_ratio(b, a)) is not None]
     if not steps:
         return []
-    change = np.abs(np.log(steps))
+    change = np.asarray(steps)
     stepped = int(np.sum(change > np.log1p(LIGHT_STEP)))
     largest = float(np.exp(change.max()))
     if stepped < max(1, FLICKER_SHARE * len(steps)) and change.max() <= LIGHT_SURE:
         return []
-    return [f"the light of the frames changed by more than {100 * LIGHT_STEP:.0f} % from one frame "
-            f"to the next {stepped} times in {len(lights)} frames (at most "
-            f"{largest:.2f}×): a lamp on the mains flickering into a short exposure, or "
-            "the camera's exposure or a light changing; each marker was fitted again in "
-            "its frame's light. An exposure of 1/50 s or 1/60 s (whole flicker periods), "
-            "a lamp on DC or a fixed exposure avoids it"]
+    return [f"the light of the frames changed by more than {100 * LIGHT_STEP:.0f} % from one "
+            f"frame to the next {stepped} times in {len(lights)} frames (at most "
+            f"{largest:.2f}× in a colour): a lamp on the mains flickering into a short "
+            "exposure, or the camera's exposure, white balance or a light changing; each "
+            "marker was fitted again in its frame's light. An exposure of 1/50 s or 1/60 s "
+            "(whole flicker periods), a lamp on DC or a fixed exposure and white balance "
+            "avoids it"]

@@ -11,7 +11,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .centre import Centre
-from .lighting import LIGHT_STEP, light_ratio
+from .coverage import CHROMA_BASIS, LUMA_BASIS
+from .lighting import LIGHT_STEP, LUMA_WEIGHTS, light_ratio
 from .markers import AREA_GATE, Blob, MarkerSpec, place_reach
 from .scatter import STAIR_RATIO
 
@@ -169,13 +170,15 @@ class MarkerState:
     #: acquisition.
     extent: tuple[float, float] | None = None
     marker: NDArray | None = None  # learned marker colour (RGB)
-    #: The light (:meth:`.video.Frame.light`, DN) its colour was seen in (weighed over
-    #: its fixes as the colour is), and this frame's (:meth:`in_light`).
-    light: float | None = None
-    frame_light: float | None = None
-    #: The factor the colour is fitted with on a second try in another light
-    #: (:meth:`try_light`); 1 otherwise.
-    lit: float = 1.0
+    #: The RGB of its middle (DN), followed as ``marker`` is (:meth:`see_rgb`).
+    marker_rgb: NDArray | None = None
+    #: The light (:meth:`.video.Frame.light`: R, G, B, DN) its colour was seen in
+    #: (weighed over its fixes as the colour is), and this frame's (:meth:`in_light`).
+    light: NDArray | None = None
+    frame_light: NDArray | None = None
+    #: The factors (R, G, B) the colour is fitted with on a second try in another
+    #: light (:meth:`try_light`); None otherwise.
+    lit: NDArray | None = None
     residual: float | None = None  # usual RMS residual of the disc fit
     area_alpha: float | None = None  # usual visible area Σα, px²
     peak: float | None = None  # usual α in the marker's middle (Centre.peak)
@@ -385,9 +388,12 @@ class MarkerState:
         if centre.params is not None and not centre.rim and np.isfinite(centre.params[3]):
             self.edges_seen.append(float(centre.params[3]))
         self.shape = centre.params
-        if self.lit != 1.0 and self.marker is not None:
+        if self.lit is not None and self.marker is not None:
             # Found in another light (try_light): its colour is that light's from now.
-            self.marker, self.light, self.lit = self.marker * self.lit, self.frame_light, 1.0
+            self.marker, self.light = self.colour, self.frame_light
+            if self.marker_rgb is not None:
+                self.marker_rgb = self.marker_rgb * self.lit
+            self.lit = None
         if seen is not None:
             self.marker = seen if self.marker is None else 0.9 * self.marker + 0.1 * seen
             # The light the colour was seen in, weighed as the colour is.
@@ -395,28 +401,44 @@ class MarkerState:
                 self.light = (self.frame_light if self.light is None
                               else 0.9 * self.light + 0.1 * self.frame_light)
 
-    def in_light(self, light: float) -> None:
-        """Take this frame's light (:meth:`.video.Frame.light`, DN)."""
-        self.frame_light, self.lit = light, 1.0
+    def see_rgb(self, rgb: NDArray | None) -> None:
+        """Follow the RGB of the marker's middle (DN) at a fix, as its colour is followed."""
+        if rgb is not None:
+            self.marker_rgb = (rgb if self.marker_rgb is None
+                               else 0.9 * self.marker_rgb + 0.1 * rgb)
+
+    def in_light(self, light: NDArray) -> None:
+        """Take this frame's light (:meth:`.video.Frame.light`: R, G, B, DN)."""
+        self.frame_light, self.lit = light, None
 
     def try_light(self) -> bool:
-        """Set the colour to be fitted with (:attr:`colour`) to the marker's own scaled
-        by how much this frame's light differs from the light it was seen in, where
-        that is by more than :data:`LIGHT_STEP`; say whether it did. For a second fit
-        beside the one in the colour as learned: a camera's exposure stepping, a lamp
-        flickering or switched on scales every colour in the frame; but a lit LED keeps
-        its colour while the room around it darkens."""
+        """Set the colour to be fitted with (:attr:`colour`) to the marker's own scaled,
+        channel by channel, by how much this frame's light differs from the light it was
+        seen in, where that is by more than :data:`LIGHT_STEP` in a channel; say whether
+        it did. For a second fit beside the one in the colour as learned: a camera's
+        exposure or white balance stepping, a lamp flickering or switched on scales
+        every colour in the frame; but a lit LED keeps its colour while the room around
+        it darkens."""
         ratio = (None if self.marker is None or self.light is None or self.frame_light is None
                  else light_ratio(self.frame_light, self.light))
-        if ratio is None or abs(ratio - 1.0) <= LIGHT_STEP:
+        if ratio is None or np.max(np.abs(ratio - 1.0)) <= LIGHT_STEP:
             return False
         self.lit = ratio
         return True
 
     @property
     def colour(self) -> NDArray | None:
-        """The colour the marker is fitted with: ``marker`` times ``lit``."""
-        return self.marker if self.marker is None or self.lit == 1.0 else self.marker * self.lit
+        """The colour the marker is fitted with (:func:`.coverage.local_coverage`'s
+        ``marker``): ``marker``, or in another light (``lit``) ``marker`` scaled by the
+        light's overall change, plus what the channels' differences from it make of the
+        middle's RGB. Where every channel changed alike, that is ``marker`` times it."""
+        if self.marker is None or self.lit is None:
+            return self.marker
+        overall = float(LUMA_WEIGHTS @ self.lit)
+        if self.marker_rgb is None:
+            return self.marker * overall
+        basis = LUMA_BASIS if self.spec.tone else CHROMA_BASIS.astype(np.float64)
+        return self.marker * overall + basis @ ((self.lit - overall) * self.marker_rgb)
 
     def predict(self, t: float) -> tuple[float, float] | None:
         """Where the marker should be at ``t`` (px), from its last fixes: a parabola

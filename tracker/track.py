@@ -26,7 +26,7 @@ from ..errors import CranktrackError
 from ..tables import tracker_columns
 from .centre import Centre
 from .coverage import local_coverage
-from .lighting import LIGHT_SURE, lighting_notes
+from .lighting import LIGHT_SURE, light_change, lighting_notes
 from .marker_state import (
     KEEP_MOTION_MISSED,
     REST_REACH,
@@ -222,7 +222,7 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
                                      centre, plausible and state.whole(centre)):
                         centre, seen, held, plausible = second
                     else:
-                        state.lit = 1.0
+                        state.lit = None
                 if plausible:
                     if not state.whole(centre):
                         return None, "partly_covered"
@@ -317,7 +317,7 @@ def _refine_blob_in_light(frame: Frame, state: MarkerState, blob: Blob, hsv_cach
     second = _refine_blob(frame, state, blob, hsv_cache)
     if _likelier_lit(state, second[0], not second[2], first[0], not first[2]):
         return second
-    state.lit = 1.0
+    state.lit = None
     return first
 
 
@@ -330,7 +330,7 @@ def _likelier_lit(state: MarkerState, lit: Centre | None, lit_ok: bool,
     room's light, an LED in its own colour."""
     if lit_ok != plain_ok:
         return lit_ok
-    if not lit_ok or abs(np.log(state.lit)) < LIGHT_SURE:
+    if not lit_ok or light_change(state.lit) < LIGHT_SURE:
         return False
     usual = state.gain or 1.0
 
@@ -782,10 +782,27 @@ def _locate_markers(frame: Frame, state: TrackerState) -> list:
                     _give_back(state.rows, k, *st.taken_up)
                 st.taken_up = None
             st.found_at(frame.t_s, centre.x, centre.y, predicted)
+            st.see_rgb(_middle_rgb(frame, centre))
             values += [centre.x, centre.y, centre.sigma, True, status]
             found.append((st, centre))
     _one_blob_each(found, state.markers, values, frame.t_s)
     return values
+
+
+def _middle_rgb(frame: Frame, centre: Centre) -> NDArray[np.float64] | None:
+    """The median RGB (DN) of the pixels within 0.6 of ``centre``'s radius of it (the
+    pixel under it, for a marker too small to hold one more); None off the frame."""
+    reach = 0.6 * centre.radius if np.isfinite(centre.radius) else 0.0
+    patch, x0, y0 = patch_around(frame, centre.x, centre.y, reach + 1.0)
+    h, w = patch.shape[:2]
+    if h * w == 0:
+        return None
+    yy, xx = np.mgrid[y0:y0 + h, x0:x0 + w]
+    inside = (xx - centre.x) ** 2 + (yy - centre.y) ** 2 <= reach * reach
+    if not inside.any():
+        inside = (np.abs(xx - centre.x) <= 0.5) & (np.abs(yy - centre.y) <= 0.5)
+    pixels = patch[inside] if inside.any() else patch.reshape(-1, 3)
+    return np.median(pixels.reshape(-1, 3), axis=0).astype(np.float64)
 
 
 def _wire_line(markers: list[MarkerState], predictions: list[tuple[float, float] | None]

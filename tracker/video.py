@@ -91,16 +91,26 @@ class Frame:
             return _i420_to_rgb(*self._planes(), 0, 0, w, h, self.full_range)
         return self.pixels
 
-    def light(self) -> float:
-        """How much light the frame holds: the median luma (BT.601, 0-255 above black)
-        of every 16th pixel of every 16th row, DN. A camera's exposure or a lamp's
-        flicker moves it; a marker crossing the frame does not."""
+    def light(self) -> NDArray[np.float64]:
+        """How much light the frame holds: the median R, G and B of every 16th pixel of
+        every 16th row, DN. A camera's exposure or white balance or a lamp's flicker
+        moves them; a marker crossing the frame does not."""
         if self.layout == "i420":
-            # The median of the codes, then their levels: a median commutes with them.
-            median = float(np.median(self.pixels[:self.size[1]:16, ::16]))
-            return median if self.full_range else (median - 16.0) * (255.0 / 219.0)
-        rgb = self.pixels[::16, ::16].astype(np.float32)
-        return float(np.median(rgb @ np.array([0.299, 0.587, 0.114], np.float32)))
+            Y, U, V = self._planes()
+            y = Y[::16, ::16].astype(np.float64)
+            u = U[::8, ::8].astype(np.float64) - 128.0
+            v = V[::8, ::8].astype(np.float64) - 128.0
+            if self.full_range:
+                gain, black, rv, gu, gv, bu = 1.0, 0.0, 1.402, 0.344136, 0.714136, 1.772
+            else:
+                gain, black, rv, gu, gv, bu = (1.164383, 16.0, 1.596027, 0.391762, 0.812968,
+                                               2.017232)
+            y = gain * (y - black)
+            rgb = np.stack([y + rv * v, y - gu * u - gv * v, y + bu * u], axis=-1)
+            rgb = np.clip(rgb, 0.0, 255.0)
+        else:
+            rgb = self.pixels[::16, ::16]
+        return np.median(rgb.reshape(-1, 3), axis=0).astype(np.float64)
 
     def region(self, x0: int, y0: int, x1: int, y1: int) -> NDArray[np.uint8]:
         """RGB pixels of columns x0…x1−1 and rows y0…y1−1 (inside the frame)."""
