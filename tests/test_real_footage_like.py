@@ -567,6 +567,27 @@ def test_a_first_fit_far_stronger_than_the_colour_it_was_given_is_not_taken():
     assert max(errors[1:]) < 0.2, errors
 
 
+def follow_in_lights(colour: str, rgb: tuple[float, float, float],
+                     lights: list) -> tuple[list[str], list[float]]:
+    """A disc 9 px in radius of ``rgb`` moving across a pale board, frame k lit by
+    ``lights[k]`` (a factor, or one per channel), followed as ``colour``: each frame's
+    status and error (px)."""
+    x0, y0 = 50.2, 60.7
+    state = TrackerState.start(parse_markers([f"dot={colour}@{x0:.0f},{y0:.0f}"]))
+    statuses, errors = [], []
+    for k, light in enumerate(lights):
+        x, y = x0 + 1.3 * k, y0 - 0.6 * k
+        sharp = draw([(x, y, 9.0, rgb)], background=(180.0, 175.0, 165.0), size=(120, 100),
+                     noise_dn=0.0)
+        image = sharp * np.asarray(light) + np.random.default_rng(k).normal(0.0, 1.5,
+                                                                            sharp.shape)
+        image = np.clip(image.round(), 0, 255).astype(np.uint8)
+        row = locate(image, state=state, t_s=k / 30).set_index("marker").loc["dot"]
+        statuses.append(row["status"])
+        errors.append(np.hypot(row["x_px"] - x, row["y_px"] - y))
+    return statuses, errors
+
+
 @pytest.mark.parametrize("lights", [
     [0.7] * 6 + [1.0] * 6,  # 1.43 times brighter: "partly covered" from then on
     [1.0] * 6 + [0.5] * 6,  # half as bright: never found again
@@ -575,18 +596,7 @@ def test_a_first_fit_far_stronger_than_the_colour_it_was_given_is_not_taken():
 ], ids=["brighter", "dimmer", "exposure", "flicker"])
 def test_a_marker_is_followed_through_a_change_of_light(lights):
     # The scene and the marker are lit alike, and their light changes between frames.
-    x0, y0 = 50.2, 60.7
-    state = TrackerState.start(parse_markers([f"dot=red@{x0:.0f},{y0:.0f}"]))
-    statuses, errors = [], []
-    for k, light in enumerate(lights):
-        x, y = x0 + 1.3 * k, y0 - 0.6 * k
-        sharp = draw([(x, y, 9.0, (200.0, 60.0, 70.0))], background=(180.0, 175.0, 165.0),
-                     size=(120, 100), noise_dn=0.0)
-        image = sharp * light + np.random.default_rng(k).normal(0.0, 1.5, sharp.shape)
-        image = np.clip(image.round(), 0, 255).astype(np.uint8)
-        row = locate(image, state=state, t_s=k / 30).set_index("marker").loc["dot"]
-        statuses.append(row["status"])
-        errors.append(np.hypot(row["x_px"] - x, row["y_px"] - y))
+    statuses, errors = follow_in_lights("red", (200.0, 60.0, 70.0), lights)
     assert statuses == ["ok"] * len(lights), statuses
     assert max(errors) < 0.1, errors
 
@@ -599,19 +609,7 @@ def test_a_marker_is_followed_through_a_change_of_light(lights):
 def test_a_marker_is_followed_through_a_white_balance_shift(colour, rgb, shift):
     # A camera's white balance moves each colour channel by its own factor (yupi's
     # rover clip: red -14 %, blue +8 % over its first 100 frames). Here from frame 6 on.
-    x0, y0 = 50.2, 60.7
-    state = TrackerState.start(parse_markers([f"dot={colour}@{x0:.0f},{y0:.0f}"]))
-    statuses, errors = [], []
-    for k in range(16):
-        x, y = x0 + 1.3 * k, y0 - 0.6 * k
-        sharp = draw([(x, y, 9.0, rgb)], background=(180.0, 175.0, 165.0), size=(120, 100),
-                     noise_dn=0.0)
-        image = sharp * (np.array(shift) if k >= 6 else 1.0)
-        image = image + np.random.default_rng(k).normal(0.0, 1.5, sharp.shape)
-        image = np.clip(image.round(), 0, 255).astype(np.uint8)
-        row = locate(image, state=state, t_s=k / 30).set_index("marker").loc["dot"]
-        statuses.append(row["status"])
-        errors.append(np.hypot(row["x_px"] - x, row["y_px"] - y))
+    statuses, errors = follow_in_lights(colour, rgb, [1.0] * 6 + [shift] * 10)
     # (The green disc's first frame is refused: its blob there is a fragment, taken
     # at the highest saturation floor.)
     assert statuses[1:] == ["ok"] * 15, statuses
