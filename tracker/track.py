@@ -790,19 +790,15 @@ def _locate_markers(frame: Frame, state: TrackerState) -> list:
 
 
 def _middle_rgb(frame: Frame, centre: Centre) -> NDArray[np.float64] | None:
-    """The median RGB (DN) of the pixels within 0.6 of ``centre``'s radius of it (the
-    pixel under it, for a marker too small to hold one more); None off the frame."""
-    reach = 0.6 * centre.radius if np.isfinite(centre.radius) else 0.0
-    patch, x0, y0 = patch_around(frame, centre.x, centre.y, reach + 1.0)
-    h, w = patch.shape[:2]
-    if h * w == 0:
+    """The median RGB (DN) of the square of pixels within 0.4 of ``centre``'s radius of
+    it, all inside a disc (the pixel under it for a small marker); None off the frame."""
+    half = 0.4 * centre.radius if np.isfinite(centre.radius) else 0.0
+    w, h = frame.size
+    x0, y0 = max(round(centre.x - half), 0), max(round(centre.y - half), 0)
+    x1, y1 = min(round(centre.x + half) + 1, w), min(round(centre.y + half) + 1, h)
+    if x1 <= x0 or y1 <= y0:
         return None
-    yy, xx = np.mgrid[y0:y0 + h, x0:x0 + w]
-    inside = (xx - centre.x) ** 2 + (yy - centre.y) ** 2 <= reach * reach
-    if not inside.any():
-        inside = (np.abs(xx - centre.x) <= 0.5) & (np.abs(yy - centre.y) <= 0.5)
-    pixels = patch[inside] if inside.any() else patch.reshape(-1, 3)
-    return np.median(pixels.reshape(-1, 3), axis=0).astype(np.float64)
+    return np.median(frame.region(x0, y0, x1, y1).reshape(-1, 3), axis=0).astype(np.float64)
 
 
 def _wire_line(markers: list[MarkerState], predictions: list[tuple[float, float] | None]

@@ -50,6 +50,10 @@ ONE_DECODER_THREAD_PX = 500_000
 _BT601 = (2, 5, 6)
 
 
+#: About how many pixels :meth:`Frame.light` takes the median of.
+LIGHT_SAMPLES = 2000
+
+
 @dataclass(frozen=True)
 class Frame:
     """One decoded frame: its index in display order, time (s) and pixels.
@@ -92,25 +96,27 @@ class Frame:
         return self.pixels
 
     def light(self) -> NDArray[np.float64]:
-        """How much light the frame holds: the median R, G and B of every 16th pixel of
-        every 16th row, DN. A camera's exposure or white balance or a lamp's flicker
-        moves them; a marker crossing the frame does not."""
+        """How much light the frame holds: the median R, G and B of about
+        :data:`LIGHT_SAMPLES` pixels on an even grid, DN. A camera's exposure or white
+        balance or a lamp's flicker moves them; a marker crossing the frame does not."""
+        w, h = self.size
+        step = 2 * max(1, round(0.5 * np.sqrt(w * h / LIGHT_SAMPLES)))  # even: whole cells
         if self.layout == "i420":
             Y, U, V = self._planes()
-            y = Y[::16, ::16].astype(np.float64)
-            u = U[::8, ::8].astype(np.float64) - 128.0
-            v = V[::8, ::8].astype(np.float64) - 128.0
+            y = Y[::step, ::step].astype(np.float32)
+            u = U[::step // 2, ::step // 2].astype(np.float32) - 128.0
+            v = V[::step // 2, ::step // 2].astype(np.float32) - 128.0
             if self.full_range:
                 gain, black, rv, gu, gv, bu = 1.0, 0.0, 1.402, 0.344136, 0.714136, 1.772
             else:
                 gain, black, rv, gu, gv, bu = (1.164383, 16.0, 1.596027, 0.391762, 0.812968,
                                                2.017232)
             y = gain * (y - black)
-            rgb = np.stack([y + rv * v, y - gu * u - gv * v, y + bu * u], axis=-1)
-            rgb = np.clip(rgb, 0.0, 255.0)
+            channels = (y + rv * v, y - gu * u - gv * v, y + bu * u)
         else:
-            rgb = self.pixels[::16, ::16]
-        return np.median(rgb.reshape(-1, 3), axis=0).astype(np.float64)
+            sample = self.pixels[::step, ::step]
+            channels = (sample[..., 0], sample[..., 1], sample[..., 2])
+        return np.array([np.median(c) for c in channels], np.float64).clip(0.0, 255.0)
 
     def region(self, x0: int, y0: int, x1: int, y1: int) -> NDArray[np.uint8]:
         """RGB pixels of columns x0…x1−1 and rows y0…y1−1 (inside the frame)."""
