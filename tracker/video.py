@@ -102,21 +102,9 @@ class Frame:
         w, h = self.size
         step = 2 * max(1, round(0.5 * np.sqrt(w * h / LIGHT_SAMPLES)))  # even: whole cells
         if self.layout == "i420":
-            Y, U, V = self._planes()
-            y = Y[::step, ::step].astype(np.float32)
-            u = U[::step // 2, ::step // 2].astype(np.float32) - 128.0
-            v = V[::step // 2, ::step // 2].astype(np.float32) - 128.0
-            if self.full_range:
-                gain, black, rv, gu, gv, bu = 1.0, 0.0, 1.402, 0.344136, 0.714136, 1.772
-            else:
-                gain, black, rv, gu, gv, bu = (1.164383, 16.0, 1.596027, 0.391762, 0.812968,
-                                               2.017232)
-            y = gain * (y - black)
-            channels = (y + rv * v, y - gu * u - gv * v, y + bu * u)
-        else:
-            sample = self.pixels[::step, ::step]
-            channels = (sample[..., 0], sample[..., 1], sample[..., 2])
-        return np.array([np.median(c) for c in channels], np.float64).clip(0.0, 255.0)
+            return _i420_light(*self._planes(), step, self.full_range)
+        sample = self.pixels[::step, ::step].reshape(-1, 3)
+        return np.median(sample, axis=0).astype(np.float64)
 
     def region(self, x0: int, y0: int, x1: int, y1: int) -> NDArray[np.uint8]:
         """RGB pixels of columns x0…x1−1 and rows y0…y1−1 (inside the frame)."""
@@ -185,6 +173,32 @@ def _i420_to_rgb(Y: NDArray, U: NDArray, V: NDArray, x0: int, y0: int, x1: int, 
             out[i - y0, j - x0, 1] = np.uint8(min(max(g, 0.0), 255.0))
             out[i - y0, j - x0, 2] = np.uint8(min(max(b, 0.0), 255.0))
     return out
+
+
+@njit(cache=True, nogil=True)
+def _i420_light(Y: NDArray, U: NDArray, V: NDArray, step: int, full_range: bool
+                ) -> NDArray:
+    """:meth:`Frame.light` of 4:2:0 planes: the median R, G and B of the pixels at every
+    ``step``-th row and column (even), converted as :func:`_i420_to_rgb` converts them
+    (unrounded). Compiled: on a 1080p frame beside the decoder's threads the same in
+    numpy took 0.4 ms."""
+    if full_range:
+        gain, black, rv, gu, gv, bu = 1.0, 0.0, 1.402, 0.344136, 0.714136, 1.772
+    else:
+        gain, black, rv, gu, gv, bu = 1.164383, 16.0, 1.596027, 0.391762, 0.812968, 2.017232
+    rows, cols = (Y.shape[0] + step - 1) // step, (Y.shape[1] + step - 1) // step
+    r, g, b = np.empty(rows * cols), np.empty(rows * cols), np.empty(rows * cols)
+    n = 0
+    for i in range(0, Y.shape[0], step):
+        for j in range(0, Y.shape[1], step):
+            y = gain * (Y[i, j] - black)
+            u = U[i // 2, j // 2] - 128.0
+            v = V[i // 2, j // 2] - 128.0
+            r[n], g[n], b[n] = y + rv * v, y - gu * u - gv * v, y + bu * u
+            n += 1
+    out = np.empty(3)
+    out[0], out[1], out[2] = np.median(r[:n]), np.median(g[:n]), np.median(b[:n])
+    return np.minimum(np.maximum(out, 0.0), 255.0)
 
 
 def _frame_pixels(frame: av.VideoFrame) -> tuple[NDArray[np.uint8], str, bool, bool]:
