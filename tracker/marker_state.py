@@ -169,7 +169,7 @@ class MarkerState:
     #: (:func:`.refine.refine_blob`). None for a disc; decided at the first
     #: acquisition.
     extent: tuple[float, float] | None = None
-    marker: NDArray | None = None  # learned marker colour (RGB)
+    marker: NDArray | None = None  # learned marker chroma (.coverage's plane)
     #: The RGB of its middle (DN), followed as ``marker`` is (:meth:`see_rgb`).
     marker_rgb: NDArray | None = None
     #: The light (:meth:`.video.Frame.light`: R, G, B, DN) its colour was seen in

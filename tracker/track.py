@@ -696,8 +696,8 @@ class TrackerState:
     markers: list[MarkerState]
     balance: dict
     rows: list[list]
-    #: Each tracked frame's light (:meth:`.video.Frame.light`, DN), in order.
-    lights: list[float] = field(default_factory=list)
+    #: Each tracked frame's light (:meth:`.video.Frame.light`: R, G, B, DN), in order.
+    lights: list[NDArray] = field(default_factory=list)
 
     @classmethod
     def start(cls, specs: Sequence[MarkerSpec] = DEFAULT_MARKERS) -> TrackerState:
