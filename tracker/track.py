@@ -592,8 +592,8 @@ def _whole_and_honest(state: MarkerState, centre: Centre, seen: NDArray | None
     # one far above that has run off (yupi's rover pivot, a soft disc in a dark ring,
     # came out at 4.9 and 20.8 px for 12.7, and the pivot was lost in frames 0-8). A low
     # one is let be: refused, vtest's default B was taken up on clothes more often.
-    if not centre.ok or not _honest(centre) or (
-            state.marker is not None and not lo < centre.gain < hi) or centre.gain >= hi:
+    if not centre.ok or not _honest(centre) or centre.gain >= hi or (
+            state.marker is not None and not centre.gain > lo):
         return None, None, "refine_failed"
     lo, hi = state.area_gates[-1]
     if state.radius is not None and not lo <= (centre.radius / state.radius) ** 2 <= hi:
