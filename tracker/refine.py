@@ -93,9 +93,10 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     its wire crosses; off for other markers, whose own stripes (a cone's tape) are
     theirs.
     ``hold_shape`` keeps the radius and edge width at ``init``'s (:func:`.disc.fit_disc`).
-    ``wire_line``: two points on the crank-slider's wire (px); a followed printed disc out
-    of focus (edge :data:`BAND_EDGE_PX` or more) that it crosses is fitted without the
-    band its shadow darkens (:func:`_wire_band`).
+    ``wire_line``: the crank-slider's wire's ends, B and C (px); a followed printed disc
+    out of focus (edge :data:`BAND_EDGE_PX` or more) that it reaches is fitted without
+    the band its shadow darkens (:func:`_wire_band`), at the wire's ends with its
+    shape held where that band is widest (:func:`_held_beside_band`).
     Returns the centre and the chroma seen in its middle.
     """
     if rim is True and init is not None:
@@ -129,6 +130,7 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
             and init[3] >= BAND_EDGE_PX and _off_line(guess, wire_line) <= radius:
         band = _wire_band(alpha.shape, x0, y0, wire_line, init[3], radius)
         whole, alpha = alpha, np.where(band, np.nan, alpha)
+        hold = hold or _held_beside_band(guess, wire_line, init[3], radius)
     fit = fit_disc(alpha, x0, y0, guess, radius, init=init, tol_px=tol, hold_shape=hold)
     for _ in range(3):
         # The background ring must be centred on the marker; a guess more than
@@ -193,6 +195,12 @@ BAND_EDGES = 1.5
 WIRE_HALF_PX = 1.0
 #: ...but at most this fraction of the disc's radius either side.
 BAND_MOST = 0.5
+#: At B and C a disc whose band would be this many times as wide as it may be is fitted
+#: with its shape held (:func:`_held_beside_band`).
+HOLD_OVER = 1.2
+#: ...and only with an edge this wide (px): well out of focus (2 px and more is,
+#: :data:`.marker_state.OUT_OF_FOCUS_EDGE_PX`), not a small disc in focus.
+HOLD_EDGE_PX = 3.0
 
 
 def wire_band_half_px(edge_px: float, radius: float) -> float:
@@ -200,6 +208,29 @@ def wire_band_half_px(edge_px: float, radius: float) -> float:
     over ``edge_px`` (px), of ``radius`` px: :data:`WIRE_HALF_PX` + :data:`BAND_EDGES`
     edge widths, at most :data:`BAND_MOST` of the radius."""
     return min(WIRE_HALF_PX + BAND_EDGES * edge_px, BAND_MOST * radius)
+
+
+def _held_beside_band(guess: tuple[float, float],
+                      line: tuple[tuple[float, float], tuple[float, float]], edge_px: float,
+                      radius: float) -> bool:
+    """Is a printed disc at ``guess`` (px), at one end of the wire ``line`` (B's or C's,
+    within ``radius`` of the end), blurred so far (edge ``edge_px``) that its band would
+    be :data:`HOLD_OVER` times as wide as :data:`BAND_MOST` of the radius lets it be,
+    with an edge of :data:`HOLD_EDGE_PX` or more, fitted with its radius and edge held
+    at its last fit's? Half a strip and more of one side is then left out, and the
+    fit's edge and gain trade off over what is left: on the second renderer's SMA bed
+    4 px out of focus, C came out at an edge of 6.4 px and a gain of 1.9 (4.4 and 1.4
+    the frame before) and was refused in 13 of its first 15 frames.
+
+    Held wherever a band is left out, A's fits with the wire across it and B's in
+    focus, where a frame's edge reached the band's threshold, came out worse; held from
+    the band's cap itself (1.0), C drawn 3 px out of focus was 0.14 px off, against
+    0.12 with the band along the whole line; and held on the project's own 480×270
+    render (discs of 5.6 px, edges 1.6–1.8 px, whose band is capped by the small
+    radius), C moved 0.04 px toward B (bench/README.md, stop 52)."""
+    end = min(np.hypot(guess[0] - p[0], guess[1] - p[1]) for p in line) <= radius
+    wanted = WIRE_HALF_PX + BAND_EDGES * edge_px
+    return bool(end and wanted >= HOLD_OVER * BAND_MOST * radius and edge_px >= HOLD_EDGE_PX)
 
 
 def _across(x: NDArray | float, y: NDArray | float,
@@ -223,15 +254,26 @@ def _wire_band(shape: tuple[int, ...], x0: int, y0: int,
                line: tuple[tuple[float, float], tuple[float, float]], edge_px: float,
                radius: float) -> NDArray:
     """Pixels of a patch (``shape``, top-left ``x0, y0``) within the wire's blurred shadow:
-    a band along ``line`` (two points on the wire, px), :data:`WIRE_HALF_PX` +
-    :data:`BAND_EDGES` edge widths either side, at most :data:`BAND_MOST` of the disc's
-    ``radius``. Through B and C, the wire's ends, it runs through their centres, so what
-    is left out is symmetric about them and pulls no fit aside; across A it leaves out
-    what the wire darkens."""
-    if np.hypot(line[1][0] - line[0][0], line[1][1] - line[0][1]) < 1e-6:
+    those within :data:`WIRE_HALF_PX` + :data:`BAND_EDGES` edge widths, at most
+    :data:`BAND_MOST` of the disc's ``radius``, of the wire, which runs from B to C
+    (``line``, px) and ends at both: tied at the crank's tip, its end at the slider.
+    At B and C the band is half a strip, on the side the wire leaves by, with a round
+    end: the shadow darkens that side only. A band along the whole line, as at first,
+    left out as much of the other side, whose edge then pulled the fit away from the
+    wire: on the second renderer's SMA bed 4 px out of focus B sat 0.44 px off along
+    the wire, 0.36 with the half band (bench/README.md, stop 52); across A it leaves
+    out what the wire darkens, as before."""
+    (bx, by), (cx, cy) = line
+    if np.hypot(cx - bx, cy - by) < 1e-6:
         return np.zeros(shape[:2], bool)
     yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
-    return _across(xx + x0, yy + y0, line) <= wire_band_half_px(edge_px, radius)
+    x, y = xx + x0, yy + y0
+    # Distance to the segment: beyond either end, to that end.
+    dist = np.where((x - bx) * (cx - bx) + (y - by) * (cy - by) < 0.0, np.hypot(x - bx, y - by),
+                    _across(x, y, line))
+    dist = np.where((x - cx) * (bx - cx) + (y - cy) * (by - cy) < 0.0, np.hypot(x - cx, y - cy),
+                    dist)
+    return dist <= wire_band_half_px(edge_px, radius)
 
 
 def _band_area(alpha: NDArray, band: NDArray, x0: int, y0: int,

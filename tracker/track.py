@@ -142,13 +142,16 @@ def _may_hold(state: MarkerState) -> bool:
 
 
 def _held_at(frame: Frame, state: MarkerState, at: tuple[float, float], reach: float,
-             luminance: bool) -> tuple[Centre, NDArray | None] | None:
+             luminance: bool,
+             wire_line: tuple[tuple[float, float], tuple[float, float]] | None = None
+             ) -> tuple[Centre, NDArray | None] | None:
     """The marker's fit from ``at`` (px) with its radius and edge held at its last free
     fit's, if it lies within ``reach`` px of ``at`` and stands out :data:`HELD_CLEAR`
-    times over its residual; else None."""
+    times over its residual; else None. ``wire_line``: the wire's ends, as for
+    :func:`.refine.refine` (held, a disc out of focus leaves the wire's band out too)."""
     centre, seen = refine(frame, at, state.radius, state.colour, init=state.shape,
                           luminance=luminance, rim=False, wire=state.spec.flat,
-                          hold_shape=True)
+                          hold_shape=True, wire_line=wire_line)
     if not (np.hypot(centre.x - at[0], centre.y - at[1]) <= reach
             and centre.gain > HELD_CLEAR * centre.rms_residual):
         return None
@@ -171,7 +174,9 @@ def _clear_of_edge(frame: Frame, r: float, x: float, y: float) -> bool:
 
 
 def _held_fit(frame: Frame, state: MarkerState, pred: tuple[float, float],
-              luminance: bool) -> tuple[Centre, NDArray | None] | None:
+              luminance: bool,
+              wire_line: tuple[tuple[float, float], tuple[float, float]] | None = None
+              ) -> tuple[Centre, NDArray | None] | None:
     """A followed marker's fit with its radius and edge held at its last fit's, where
     the free fit from ``pred`` failed: on a disc a few pixels across, six parameters
     trade off (radius, edge and gain) and the fit runs off from one frame of a still
@@ -181,7 +186,7 @@ def _held_fit(frame: Frame, state: MarkerState, pred: tuple[float, float],
     if not _may_hold(state):
         return None
     reach = (REST_STEP if state.resting else HELD_STEP) * state.radius
-    return _held_at(frame, state, pred, reach, luminance)
+    return _held_at(frame, state, pred, reach, luminance, wire_line)
 
 
 def _plausible(c: Centre, guess: tuple[float, float], state: MarkerState) -> bool:
@@ -300,7 +305,7 @@ def _followed(frame: Frame, state: MarkerState, pred: tuple[float, float],
                           luminance=luminance, rim=state.rim, wire=state.spec.flat,
                           wire_line=wire_line)
     plausible = _plausible(centre, pred, state)
-    again = None if plausible else _held_fit(frame, state, pred, luminance)
+    again = None if plausible else _held_fit(frame, state, pred, luminance, wire_line)
     if again is None:
         return centre, seen, False, plausible
     return *again, True, _plausible(again[0], pred, state)
