@@ -290,7 +290,7 @@ def test_start_and_end_limit_the_frames_tracked(tmp_path, capsys):
 def test_the_crank_sliders_discs_out_of_focus_are_said_to_be(tmp_path, blur):
     # The green, red and blue discs on a pale board, drawn sharp and blurred by a
     # Gaussian of 3 px (scipy's, not the tracker's model). Out of focus, on a second
-    # renderer's SMA bed, θ was off by 0.1-0.8° and B lost in up to a fifth of frames.
+    # renderer's SMA bed, θ was off by 0.1-0.7° and A lost in up to a tenth of frames.
     import cv2
     from scipy.ndimage import gaussian_filter
 

@@ -624,8 +624,9 @@ def rig_focus_note(edges: dict[str, float]) -> str | None:
     soft = {name: e for name, e in edges.items() if e >= OUT_OF_FOCUS_EDGE_PX}
     if not soft:
         return None
-    return (f"{_out_of_focus(soft)}. Out of focus, B may be lost and θ off by 0.1-0.8° "
-            "(bench/README.md, stops 49-50): focus the camera on the markers before filming")
+    return (f"{_out_of_focus(soft)}. Out of focus, θ may be off by 0.1-0.7° and a marker "
+            "lost in up to a tenth of the frames (bench/README.md, stops 49-52): focus the "
+            "camera on the markers before filming")
 
 
 def focus_notes(states: list[MarkerState], found: dict[str, float]) -> list[str]:
@@ -642,9 +643,9 @@ def focus_notes(states: list[MarkerState], found: dict[str, float]) -> list[str]
     if soft:
         notes.append(
             f"marker{'s' if len(soft) > 1 else ''} {_out_of_focus(soft)}. On a second "
-            "renderer's SMA bed blurred so, θ was off by 0.1-0.8° against a σ of "
-            "0.1-0.2°, and B was lost in up to a fifth of the frames (bench/README.md, "
-            "stops 49-50); focus the camera on the markers")
+            "renderer's SMA bed blurred so, θ was off by 0.1-0.7° against a σ of "
+            "0.1-0.2°, and A, with the wire across it, lost in up to a tenth of the frames "
+            "(bench/README.md, stops 49-52); focus the camera on the markers")
     for st in flat:
         if found.get(st.spec.name, 0.0) == 0 and st.refused_shaded:
             notes.append(
