@@ -506,9 +506,10 @@ def _even_beside_a_band(alpha: NDArray, dx: NDArray, dy: NDArray, radius: float,
     if not q90 > 0:
         return False
     # Or falling off evenly all round beside it, as a disc out of focus does: blurred
-    # by 4 px (edge 3.7, half its radius), B's middle itself falls by 0.16, and beside
-    # the band the spread was 0.19-0.20; B was refused as shaded in its first 9 frames
-    # on the second renderer's SMA bed, and lost in 16 (bench/README.md, stop 52).
+    # by 4 px (edge 3.7 px, radius 9.6), B's middle itself falls off so that the darkest
+    # band was not the wire's and the coverage beside it spread by 0.19-0.21; B was
+    # refused as shaded in its first 9 frames on the second renderer's SMA bed, and lost
+    # in 16 (bench/README.md, stop 52).
     return (q90 - q10) / q90 <= SHADED_SPREAD or _bowl_even(alpha[beside], dx[beside],
                                                             dy[beside], radius, q90)
 
