@@ -1,4 +1,4 @@
-"""The crank-slider's wire across its own markers: tied at B's middle, running over C's
+"""The crank-slider's wire across its own markers: tied at B's middle, ending at C's
 and, with the crank near 180°, across A's. A second renderer's SMA bed
 (bench/sma_bed_apart.py) found B rejected in every frame as a shaded ball, C moved
 0.05–0.10 px along the wire and A lost after its colour was cut in two. These
