@@ -808,7 +808,7 @@ def _middle_rgb(frame: Frame, centre: Centre) -> NDArray[np.float64] | None:
 
 def _wire_line(markers: list[MarkerState], predictions: list[tuple[float, float] | None]
                ) -> tuple[tuple[float, float], tuple[float, float]] | None:
-    """Two points on the crank-slider's SMA wire, tied at B and ending at C: the
+    """The ends of the crank-slider's SMA wire, tied at B and ending at C: the
     predictions of its printed discs B and C (px), or None without both."""
     at = {st.spec.name: p for st, p in zip(markers, predictions, strict=True)
           if st.spec.flat and p is not None}
