@@ -383,3 +383,39 @@ def test_a_neighbour_of_its_colour_overlapping_a_still_marker_is_still_refused()
             assert row.status != "ok", (into, row.status)
         elif row.status == "ok":
             assert abs(row.x_px - 70.3) < 0.02 and abs(row.y_px - 50.6) < 0.02, row
+
+
+def test_the_least_median_circle_is_the_triple_whose_median_residual_is_least():
+    # Written out plainly here (numpy, every triple's median taken): the compiled search
+    # skips the median of a triple that cannot beat the best so far, and must pick the
+    # same circle, ties and outliers (a stalk) included.
+    from cranktrack.tracker.outline import _TRIPLES, _least_median_circle
+
+    def plainly(points: np.ndarray) -> np.ndarray:
+        n, best, out = len(points), np.inf, None
+        for u, v, w in _TRIPLES:
+            a, b, c = (points[min(int(f * n), n - 1)] for f in (u, v, w))
+            d = 2 * (a[0] * (b[1] - c[1]) + b[0] * (c[1] - a[1]) + c[0] * (a[1] - b[1]))
+            if not abs(d) > 1e-6:
+                continue
+            sa, sb, sc = a @ a, b @ b, c @ c
+            centre = np.array([sa * (b[1] - c[1]) + sb * (c[1] - a[1]) + sc * (a[1] - b[1]),
+                               sa * (c[0] - b[0]) + sb * (a[0] - c[0]) + sc * (b[0] - a[0])]) / d
+            r = np.hypot(*(a - centre))
+            med = np.median(np.abs(np.hypot(*(points - centre).T) - r))
+            if med < best:
+                best, out = med, np.array([*centre, r])
+        return out
+
+    rng = np.random.default_rng(3)
+    for trial in range(60):
+        n = int(rng.integers(6, 97))
+        turn = rng.uniform(0.0, 2.0 * np.pi, n)
+        points = np.c_[40 + 12 * np.cos(turn), 30 + 12 * np.sin(turn)]
+        points += rng.normal(0.0, 0.4, points.shape)
+        if trial % 2:
+            points[: n // 4] += rng.normal(0.0, 8.0, (n // 4, 2))  # a stalk's rays
+        if trial % 5 == 0:
+            points = np.round(points)  # ties among the residuals
+        got = _least_median_circle(np.ascontiguousarray(points))
+        assert np.allclose(got, plainly(points), rtol=0, atol=1e-9), trial
