@@ -420,6 +420,21 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     return 0
 
 
+def _pixels_only(folder: str, names: list[str]) -> str:
+    """What a run tracked with no length or calibration lacks, and the command that adds
+    it without tracking again, for the markers it tracked (``names``). Lengths and
+    kinematics are made for the crank-slider's markers: `measure` places the plane on A
+    (a run of other markers was told to add a length it could not take)."""
+    said = "no --known-length or --calibration given: tracks are in pixels only"
+    if {"A", "B"} <= set(names):
+        pair = "A-C" if "C" in names else "A-B"
+        return (f"{said}, no kinematics (add them with `cranktrack measure {folder} "
+                f"--known-length {pair}=MM`, without tracking again)")
+    return (f"{said}: mm and kinematics are made for the crank-slider's markers, A (the "
+            "pivot) and B, with C or `--marker C=none`; track yours under those names to "
+            "have them")
+
+
 def cmd_track(args: argparse.Namespace) -> int:
     run = _track(args, Path(args.video), Path(args.out))
     if args.rerun:
@@ -432,9 +447,8 @@ def cmd_track(args: argparse.Namespace) -> int:
                       for m in [c[:-3] for c in run.tracks.columns if c.endswith("_ok")])
     print(f"tracked {len(run.tracks)} frames (markers found: {found})")
     if run.calibration is None:
-        print("no --known-length or --calibration given: tracks are in pixels only, "
-              f"no kinematics (add them with `cranktrack measure {shlex.quote(str(run.folder))} "
-              "--known-length A-C=MM`, without tracking again)")
+        names = [c[:-3] for c in run.tracks.columns if c.endswith("_ok")]
+        print(_pixels_only(shlex.quote(str(run.folder)), names))
     print(f"wrote {', '.join(f.name for f in run.files.values())} in {run.folder}")
     return 0
 

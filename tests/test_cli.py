@@ -272,6 +272,27 @@ def test_measure_adds_kinematics_to_a_pixel_run_and_refuses_in_one_sentence(
     assert "made from an earlier kinematics.csv; run `cranktrack compare` again" in err
 
 
+def test_a_pixel_run_is_told_a_command_that_works_for_the_markers_it_tracked(
+        small_h264, tmp_path, capsys):
+    # A run of other markers was told to add `--known-length A-C=MM`, which `measure`
+    # then refused: "marker A is not tracked". Each hint is now run as printed.
+    import re
+    import shlex
+
+    run = tmp_path / "abc"
+    assert main(["track", str(small_h264.video), "--out", str(run)]) == 0
+    hint = re.search(r"`(cranktrack measure [^`]*)`", capsys.readouterr().out).group(1)
+    assert main(shlex.split(hint.replace("=MM", "=160.8"))[1:]) == 0
+    assert (run / "kinematics.csv").exists()
+    capsys.readouterr()
+    other = tmp_path / "ball"
+    assert main(["track", str(small_h264.video), "--marker", "ball=green",
+                 "--out", str(other)]) == 0
+    out = capsys.readouterr().out
+    assert "kinematics are made for the crank-slider's markers" in out, out
+    assert "--known-length A-C" not in out, out
+
+
 def test_calibrate_readout_from_two_markers_on_a_bar_shaken_sideways(tmp_path, capsys):
     import json
 
