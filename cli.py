@@ -443,11 +443,10 @@ def cmd_track(args: argparse.Namespace) -> int:
         rrd = _record(run.folder, spawn, target)
         print(f"wrote {rrd}")
     _print_warnings(run.warnings)
-    found = ", ".join(f"{m} {100 * run.tracks[m + '_ok'].mean():.0f}%"
-                      for m in [c[:-3] for c in run.tracks.columns if c.endswith("_ok")])
+    names = [c[:-3] for c in run.tracks.columns if c.endswith("_ok")]
+    found = ", ".join(f"{m} {100 * run.tracks[m + '_ok'].mean():.0f}%" for m in names)
     print(f"tracked {len(run.tracks)} frames (markers found: {found})")
     if run.calibration is None:
-        names = [c[:-3] for c in run.tracks.columns if c.endswith("_ok")]
         print(_pixels_only(shlex.quote(str(run.folder)), names))
     print(f"wrote {', '.join(f.name for f in run.files.values())} in {run.folder}")
     return 0
