@@ -419,3 +419,26 @@ def test_the_least_median_circle_is_the_triple_whose_median_residual_is_least():
             points = np.round(points)  # ties among the residuals
         got = _least_median_circle(np.ascontiguousarray(points))
         assert np.allclose(got, plainly(points), rtol=0, atol=1e-9), trial
+
+
+def test_the_rims_rays_sample_the_coverage_as_opencvs_remap_does():
+    # The compiled ray sampler is checked against OpenCV's own bilinear remap (a NaN
+    # border), which the rim search used before it was fused: the same values to the
+    # bit, NaN where a sample's pixels are outside the patch or undefined.
+    import cv2
+
+    from cranktrack.tracker.outline import RIM_HALF, _ray_drops, _ray_grid
+
+    rng = np.random.default_rng(5)
+    for trial in range(20):
+        h, w = (int(v) for v in rng.integers(20, 70, 2))
+        alpha = rng.normal(0.5, 0.4, (h, w)).astype(np.float32)
+        alpha[rng.random((h, w)) < 0.02] = np.nan  # pixels outside the unmixed window
+        cx, cy = np.float32(rng.uniform(-3, w + 3)), np.float32(rng.uniform(-3, h + 3))
+        _, dx, dy = _ray_grid(int(rng.integers(16, 97)), int(rng.integers(40, 300)))
+        a = cv2.remap(alpha, dx + cx, dy + cy, cv2.INTER_LINEAR,
+                      borderMode=cv2.BORDER_CONSTANT, borderValue=np.nan)
+        expected = np.full_like(a, np.nan)
+        expected[:, RIM_HALF:-RIM_HALF] = a[:, :-2 * RIM_HALF] - a[:, 2 * RIM_HALF:]
+        got = _ray_drops(alpha, dx, dy, cx, cy)
+        assert np.array_equal(got, expected, equal_nan=True), trial

@@ -164,21 +164,83 @@ def rim_points(alpha: NDArray, x0: float, y0: float, centre: tuple[float, float]
     left out.
     """
     cx, cy = centre[0] - x0, centre[1] - y0
+    reach, dx, dy = _ray_grid(rays, math.ceil(4 * (2.0 * radius + 4.0)))
+    return _rim_points(np.asarray(alpha, np.float32), float(x0), float(y0), cx, cy, dx, dy,
+                       reach, float(peak))
+
+
+@njit(cache=True, nogil=True)
+def _rim_points(alpha: NDArray, x0: float, y0: float, cx: float, cy: float, dx: NDArray,
+                dy: NDArray, reach: NDArray, peak: float) -> NDArray:
+    """:func:`rim_points` on a float32 coverage patch, the centre (``cx``, ``cy``) in
+    patch px, the rays :func:`_ray_grid`'s."""
     if not peak > 0.1:
         return np.empty((0, 2))
-    half = 4  # samples in 1 px
-    reach, dx, dy = _ray_grid(rays, math.ceil(4 * (2.0 * radius + 4.0)))
-    mx = dx + np.float32(cx)
-    my = dy + np.float32(cy)
-    # Undefined α (outside the unmixed window) reads as NaN and ends the ray there.
-    a = cv2.remap(np.asarray(alpha, np.float32), mx, my, cv2.INTER_LINEAR,
-                  borderMode=cv2.BORDER_CONSTANT, borderValue=np.nan)
-    drop = np.full_like(a, np.nan)
-    drop[:, half:-half] = a[:, :-2 * half] - a[:, 2 * half:]  # fall over 2 px, centred
-    r = _rim_radii(drop, reach, peak, half)
-    keep = np.isfinite(r)
-    ux, uy = dx[keep, 1] / reach[1], dy[keep, 1] / reach[1]
-    return np.column_stack([x0 + cx + r[keep] * ux, y0 + cy + r[keep] * uy])
+    r = _rim_radii(_ray_drops(alpha, dx, dy, np.float32(cx), np.float32(cy)), reach, peak,
+                   RIM_HALF)
+    out = np.empty((len(r), 2))
+    n = 0
+    for k in range(len(r)):
+        if np.isfinite(r[k]):
+            # As float64 from the float32 offsets, the first sample's offset is the
+            # ray's direction times its spacing.
+            out[n, 0] = x0 + cx + r[k] * (np.float64(dx[k, 1]) / reach[1])
+            out[n, 1] = y0 + cy + r[k] * (np.float64(dy[k, 1]) / reach[1])
+            n += 1
+    return out[:n]
+
+
+#: Samples in 1 px along a ray (every 0.25 px), and so in half of the 2 px the rim's
+#: fall is taken over.
+RIM_HALF = 4
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _fma32(p: float, q: float, r: float) -> float:
+    """p·q + r for float32 values, rounded once to float32 (as a fused multiply-add:
+    a product of two float32 is exact in float64)."""
+    return np.float32(np.float64(p) * np.float64(q) + np.float64(r))
+
+
+@njit(cache=True, nogil=True)
+def _ray_drops(alpha: NDArray, dx: NDArray, dy: NDArray, cx: np.float32, cy: np.float32
+               ) -> NDArray:
+    """α sampled along each ray from (``cx``, ``cy``) (patch px) at the offsets ``dx``,
+    ``dy`` (:func:`_ray_grid`), bilinear, and its fall over 2 px (:data:`RIM_HALF`
+    samples either side) at each sample: NaN within 1 px of a ray's ends, and where a
+    sample's four pixels are not all defined (outside the patch or the unmixed window;
+    that ends the ray). In float32, each row's two steps and the step between them
+    rounded once each, as OpenCV 5's ``remap`` (INTER_LINEAR, a NaN border) samples:
+    the same values to the bit, which a test checks; fused here, the remap's arrays
+    and the differences between them cost as much as the rim search itself."""
+    h, w = alpha.shape
+    rays, n = dx.shape
+    a = np.empty(n, np.float32)
+    drop = np.full((rays, n), np.nan, np.float32)
+    for k in range(rays):
+        inside = False
+        for i in range(n):
+            x, y = dx[k, i] + cx, dy[k, i] + cy
+            fx0, fy0 = np.floor(x), np.floor(y)
+            j0, i0 = int(fx0), int(fy0)
+            if j0 < 0 or i0 < 0 or j0 + 1 >= w or i0 + 1 >= h:
+                if inside:
+                    # Out of the patch after being in it: a ray's samples run straight
+                    # out (monotone even when rounded), so all the rest are out too.
+                    a[i:] = np.nan
+                    break
+                a[i] = np.nan
+                continue
+            inside = True
+            fx, fy = x - fx0, y - fy0
+            p, q = alpha[i0, j0], alpha[i0, j0 + 1]
+            u, v = alpha[i0 + 1, j0], alpha[i0 + 1, j0 + 1]
+            top = _fma32(fx, q - p, p)
+            bottom = _fma32(fx, v - u, u)
+            a[i] = _fma32(fy, bottom - top, top)
+        for i in range(RIM_HALF, n - RIM_HALF):
+            drop[k, i] = a[i - RIM_HALF] - a[i + RIM_HALF]
+    return drop
 
 
 @lru_cache(maxsize=64)
@@ -292,20 +354,37 @@ def fit_circle(points: NDArray, iterations: int = 20, start: NDArray | None = No
     residual over 1.4826·MAD (at least :data:`MIN_SCALE_PX`), follow. The
     covariance is s²·(JᵀWJ)⁻¹ with s² the weighted residual variance.
     """
-    x = np.ascontiguousarray(points[:, 0], np.float64)
-    y = np.ascontiguousarray(points[:, 1], np.float64)
-    if start is None:
-        start = _least_median_circle(np.ascontiguousarray(points, np.float64))
-    p, wts = _reweighted_circle(x, y, np.asarray(start, np.float64), iterations)
-    ex, ey = x - p[0], y - p[1]
-    rho = np.maximum(np.hypot(ex, ey), 1e-9)
-    res = rho - p[2]
-    J = np.column_stack([-ex / rho, -ey / rho, -np.ones_like(x)])
-    kept = float(wts.sum())
-    s2 = float((wts * res**2).sum()) / max(kept - 3.0, 1.0)
+    given = np.empty(0) if start is None else np.asarray(start, np.float64)
+    return _fit_circle(np.ascontiguousarray(points, np.float64), given, iterations)
+
+
+@njit(cache=True, nogil=True)
+def _fit_circle(points: NDArray, start: NDArray, iterations: int
+                ) -> tuple[NDArray, NDArray, NDArray]:
+    """:func:`fit_circle`, with ``start`` empty for the least-median start. Compiled:
+    in NumPy the covariance's small array steps cost as much as the fit."""
+    x = np.ascontiguousarray(points[:, 0])
+    y = np.ascontiguousarray(points[:, 1])
+    if start.size == 0:
+        start = _least_median_circle(points)
+    p, wts = _reweighted_circle(x, y, start, iterations)
+    A = np.zeros((3, 3))
+    j = np.empty(3)
+    kept, ss = 0.0, 0.0
+    for i in range(len(x)):
+        ex, ey = x[i] - p[0], y[i] - p[1]
+        rho = max(math.hypot(ex, ey), 1e-9)
+        res = rho - p[2]
+        j[0], j[1], j[2] = -ex / rho, -ey / rho, -1.0
+        for a in range(3):
+            for b in range(3):
+                A[a, b] += j[a] * wts[i] * j[b]
+        kept += wts[i]
+        ss += wts[i] * res * res
+    s2 = ss / max(kept - 3.0, 1.0)
     try:
-        cov = s2 * np.linalg.inv((J.T * wts) @ J)
-    except np.linalg.LinAlgError:
+        cov = s2 * np.linalg.inv(A)
+    except Exception:  # a singular system: numba catches no narrower class
         cov = np.full((3, 3), np.nan)
     return p, cov, wts
 

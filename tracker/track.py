@@ -765,7 +765,7 @@ def _locate_markers(frame: Frame, state: TrackerState) -> list:
     found: list[tuple[MarkerState, Centre]] = []
     predictions = [st.predict(frame.t_s) for st in state.markers]
     wire_line = _wire_line(state.markers, predictions)
-    light = frame.light()
+    light = frame.light
     state.lights.append(light)
     for st in state.markers:
         st.in_light(light)

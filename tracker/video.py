@@ -95,10 +95,12 @@ class Frame:
             return _i420_to_rgb(*self._planes(), 0, 0, w, h, self.full_range)
         return self.pixels
 
+    @cached_property
     def light(self) -> NDArray[np.float64]:
         """How much light the frame holds: the median R, G and B of about
         :data:`LIGHT_SAMPLES` pixels on an even grid, DN. A camera's exposure or white
-        balance or a lamp's flicker moves them; a marker crossing the frame does not."""
+        balance or a lamp's flicker moves them; a marker crossing the frame does not.
+        A prefetching reader (:meth:`FrameSource.frames`) reads it in its own thread."""
         w, h = self.size
         step = 2 * max(1, round(0.5 * np.sqrt(w * h / LIGHT_SAMPLES)))  # even: whole cells
         if self.layout == "i420":
@@ -244,8 +246,8 @@ class FrameSource:
 
         With ``prefetch > 0`` a background thread decodes up to that many
         frames ahead, so decoding overlaps whatever the caller does with each
-        frame (FFmpeg and OpenCV release the GIL while they work). Memory
-        stays bounded by the queue.
+        frame (FFmpeg and OpenCV release the GIL while they work), and reads
+        each frame's :attr:`Frame.light` there too. Memory stays bounded by the queue.
         """
         inner = self._image_frames() if self.kind == "images" else self._video_frames()
         if prefetch <= 0:
@@ -364,6 +366,9 @@ def _prefetched(frames: Iterator[Frame], depth: int) -> Iterator[Frame]:
     def work() -> None:
         try:
             for f in frames:
+                # The tracker reads every frame's light; read here, it overlaps the
+                # tracking of the frame before (compiled without the GIL).
+                f.light  # noqa: B018
                 while not stop.is_set():
                     try:
                         q.put(f, timeout=0.1)
