@@ -265,14 +265,17 @@ def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
         return Centre(np.nan, np.nan, np.nan, radius, False)
     inv, rss = _edge_floored(np.asarray(alpha, np.float64), float(x0), float(y0),
                              float(guess[0]), float(guess[1]), float(radius), p, inv, rss)
-    s2 = rss / max(n - 6, 1)
-    var = 0.5 * (inv[0, 0] + inv[1, 1]) * s2
-    moved = np.hypot(p[0] - guess[0], p[1] - guess[1])
-    ok = bool(np.all(np.isfinite(p)) and moved < radius and 0 < p[2] < 3 * radius
-              and np.isfinite(var) and var >= 0)
-    sigma = float(np.sqrt(var)) if np.isfinite(var) and var >= 0 else float("nan")
-    return Centre(float(p[0]), float(p[1]), sigma, float(p[2]), ok, float(np.sqrt(s2)),
-                  float(p[4]), tuple(float(v) for v in p), float(total))
+    # As Python floats: this runs several times per marker per frame, and NumPy's
+    # calls on scalars cost more than the arithmetic (the same libm functions).
+    params = tuple(p.tolist())
+    s2 = float(rss) / max(n - 6, 1)
+    var = 0.5 * float(inv[0, 0] + inv[1, 1]) * s2
+    moved = math.hypot(params[0] - guess[0], params[1] - guess[1])
+    finite = math.isfinite(var) and var >= 0
+    ok = (all(map(math.isfinite, params)) and moved < radius and 0 < params[2] < 3 * radius
+          and finite)
+    return Centre(params[0], params[1], math.sqrt(var) if finite else math.nan, params[2], ok,
+                  math.sqrt(s2) if s2 >= 0 else math.nan, params[4], params, float(total))
 
 
 #: A pixel of a fitted disc (inside it, or on its rim up to one blur width out) whose

@@ -803,7 +803,7 @@ def _middle_rgb(frame: Frame, centre: Centre) -> NDArray[np.float64] | None:
     x1, y1 = min(round(centre.x + half) + 1, w), min(round(centre.y + half) + 1, h)
     if x1 <= x0 or y1 <= y0:
         return None
-    return np.median(frame.region(x0, y0, x1, y1).reshape(-1, 3), axis=0).astype(np.float64)
+    return frame.median_rgb(x0, y0, x1, y1)
 
 
 def _wire_line(markers: list[MarkerState], predictions: list[tuple[float, float] | None]
