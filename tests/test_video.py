@@ -101,6 +101,20 @@ def test_h264_frames_keep_the_decoders_planes_and_convert_like_ffmpeg(tmp_path):
             # A fresh frame, so nothing is cached.
             fresh = Frame(mine.index, mine.t_s, mine.pixels, mine.layout, mine.full_chroma)
             np.testing.assert_array_equal(fresh.region(x0, y0, x1, y1), whole[y0:y1, x0:x1])
+        # Regions inside one converted before are cut from it: the same pixels, each
+        # the caller's own (writing to one changes no other), and their medians are
+        # NumPy's.
+        fresh = Frame(mine.index, mine.t_s, mine.pixels, mine.layout, mine.full_chroma)
+        outer = fresh.region(10, 8, 70, 60)
+        inner = fresh.region(20, 15, 41, 40)
+        np.testing.assert_array_equal(inner, whole[15:40, 20:41])
+        outer[:] = 0
+        inner[:] = 0
+        np.testing.assert_array_equal(fresh.region(20, 15, 41, 40), whole[15:40, 20:41])
+        for x0, y0, x1, y1 in ((20, 15, 41, 40), (30, 30, 33, 34), (5, 5, 6, 6)):
+            np.testing.assert_array_equal(
+                fresh.median_rgb(x0, y0, x1, y1),
+                np.median(whole[y0:y1, x0:x1].reshape(-1, 3), axis=0))
 
 
 @pytest.mark.parametrize("how", ["yuvj420p", "color_range"])
