@@ -176,16 +176,22 @@ def _rim_points(alpha: NDArray, x0: float, y0: float, cx: float, cy: float, dx: 
     patch px, the rays :func:`_ray_grid`'s."""
     if not peak > 0.1:
         return np.empty((0, 2))
-    r = _rim_radii(_ray_drops(alpha, dx, dy, np.float32(cx), np.float32(cy)), reach, peak,
-                   RIM_HALF)
-    out = np.empty((len(r), 2))
+    rays, samples = dx.shape
+    a = np.empty(samples, np.float32)
+    drop = np.empty(samples, np.float32)
+    out = np.empty((rays, 2))
     n = 0
-    for k in range(len(r)):
-        if np.isfinite(r[k]):
+    for k in range(rays):
+        # Ray by ray, its samples still in the cache, and only as far as they are
+        # defined: past there the falls are NaN, which the rim search passes over.
+        stop = _sample_ray(alpha, dx[k], dy[k], np.float32(cx), np.float32(cy), a)
+        end = _ray_falls(a, stop, drop)
+        r = _ray_rim(drop, end, reach, peak, RIM_HALF)
+        if np.isfinite(r):
             # As float64 from the float32 offsets, the first sample's offset is the
             # ray's direction times its spacing.
-            out[n, 0] = x0 + cx + r[k] * (np.float64(dx[k, 1]) / reach[1])
-            out[n, 1] = y0 + cy + r[k] * (np.float64(dy[k, 1]) / reach[1])
+            out[n, 0] = x0 + cx + r * (np.float64(dx[k, 1]) / reach[1])
+            out[n, 1] = y0 + cy + r * (np.float64(dy[k, 1]) / reach[1])
             n += 1
     return out[:n]
 
@@ -213,34 +219,56 @@ def _ray_drops(alpha: NDArray, dx: NDArray, dy: NDArray, cx: np.float32, cy: np.
     rounded once each, as OpenCV 5's ``remap`` (INTER_LINEAR, a NaN border) samples:
     the same values to the bit, which a test checks; fused here, the remap's arrays
     and the differences between them cost as much as the rim search itself."""
-    h, w = alpha.shape
     rays, n = dx.shape
     a = np.empty(n, np.float32)
     drop = np.full((rays, n), np.nan, np.float32)
     for k in range(rays):
-        inside = False
-        for i in range(n):
-            x, y = dx[k, i] + cx, dy[k, i] + cy
-            fx0, fy0 = np.floor(x), np.floor(y)
-            j0, i0 = int(fx0), int(fy0)
-            if j0 < 0 or i0 < 0 or j0 + 1 >= w or i0 + 1 >= h:
-                if inside:
-                    # Out of the patch after being in it: a ray's samples run straight
-                    # out (monotone even when rounded), so all the rest are out too.
-                    a[i:] = np.nan
-                    break
-                a[i] = np.nan
-                continue
-            inside = True
-            fx, fy = x - fx0, y - fy0
-            p, q = alpha[i0, j0], alpha[i0, j0 + 1]
-            u, v = alpha[i0 + 1, j0], alpha[i0 + 1, j0 + 1]
-            top = _fma32(fx, q - p, p)
-            bottom = _fma32(fx, v - u, u)
-            a[i] = _fma32(fy, bottom - top, top)
-        for i in range(RIM_HALF, n - RIM_HALF):
-            drop[k, i] = a[i - RIM_HALF] - a[i + RIM_HALF]
+        end = _ray_falls(a, _sample_ray(alpha, dx[k], dy[k], cx, cy, a), drop[k])
+        drop[k, end:] = np.nan
     return drop
+
+
+@njit(cache=True, nogil=True)
+def _sample_ray(alpha: NDArray, dx: NDArray, dy: NDArray, cx: np.float32, cy: np.float32,
+                a: NDArray) -> int:
+    """One ray's samples of α into ``a`` (see :func:`_ray_drops`); returns how many
+    were read: past that the ray has left the patch, and ``a`` is NaN."""
+    h, w = alpha.shape
+    n = len(dx)
+    inside = False
+    for i in range(n):
+        x, y = dx[i] + cx, dy[i] + cy
+        fx0, fy0 = np.floor(x), np.floor(y)
+        j0, i0 = int(fx0), int(fy0)
+        if j0 < 0 or i0 < 0 or j0 + 1 >= w or i0 + 1 >= h:
+            if inside:
+                # Out of the patch after being in it: a ray's samples run straight
+                # out (monotone even when rounded), so all the rest are out too.
+                a[i:] = np.nan
+                return i
+            a[i] = np.nan
+            continue
+        inside = True
+        fx, fy = x - fx0, y - fy0
+        p, q = alpha[i0, j0], alpha[i0, j0 + 1]
+        u, v = alpha[i0 + 1, j0], alpha[i0 + 1, j0 + 1]
+        top = _fma32(fx, q - p, p)
+        bottom = _fma32(fx, v - u, u)
+        a[i] = _fma32(fy, bottom - top, top)
+    return n
+
+
+@njit(cache=True, nogil=True)
+def _ray_falls(a: NDArray, stop: int, drop: NDArray) -> int:
+    """The fall of α over 2 px (:data:`RIM_HALF` samples either side) along a ray's
+    samples ``a`` into ``drop``, NaN within 1 px of its start; returns the index past
+    which it is NaN (the ray's end, or where its samples stop, ``stop``)."""
+    n = len(a)
+    end = max(min(n, stop) - RIM_HALF, RIM_HALF)
+    drop[:RIM_HALF] = np.nan
+    for i in range(RIM_HALF, end):
+        drop[i] = a[i - RIM_HALF] - a[i + RIM_HALF]
+    return end
 
 
 @lru_cache(maxsize=64)
@@ -258,38 +286,32 @@ def _ray_grid(rays: int, samples: int) -> tuple[NDArray, NDArray, NDArray]:
 
 
 @njit(cache=True, nogil=True)
-def _rim_radii(drop: NDArray, reach: NDArray, peak: float, half: int) -> NDArray:
-    """Per ray (a row of ``drop``, the fall of α over 2 px at each of ``reach``'s
-    samples), the rim's distance from the centre, px, or NaN (see :func:`rim_points`).
-    Compiled: a Python loop over the rays took most of a real clip's tracking time."""
-    rays, n = drop.shape
-    out = np.full(rays, np.nan)
-    for k in range(rays):
-        d = drop[k]
-        strongest = -np.inf
-        for i in range(n):
-            if np.isfinite(d[i]) and d[i] > strongest:
-                strongest = d[i]
-        if not np.isfinite(strongest) or strongest < 0.15 * peak:
-            continue
-        j = -1
-        for i in range(n - 1, -1, -1):
-            if np.isfinite(d[i]) and d[i] >= 0.6 * strongest:
-                j = i
-                break
-        # That is on the fall's outer flank: walk in to its top.
-        while j > 0 and np.isfinite(d[j - 1]) and d[j - 1] > d[j]:
-            j -= 1
-        lo, hi = max(j - half, 0), min(j + half + 1, n)
-        total = 0.0
-        moment = 0.0
-        for i in range(lo, hi):
-            if np.isfinite(d[i]) and d[i] > 0.0:
-                total += d[i]
-                moment += d[i] * reach[i]
-        if total > 0.0:
-            out[k] = moment / total
-    return out
+def _ray_rim(d: NDArray, n: int, reach: NDArray, peak: float, half: int) -> float:
+    """The rim's distance from the centre along one ray, px, or NaN (see
+    :func:`rim_points`): ``d`` is the fall of α over 2 px at each of ``reach``'s
+    samples, defined (or NaN) in its first ``n`` and NaN beyond."""
+    strongest = -np.inf
+    for i in range(n):
+        if np.isfinite(d[i]) and d[i] > strongest:
+            strongest = d[i]
+    if not np.isfinite(strongest) or strongest < 0.15 * peak:
+        return np.nan
+    j = -1
+    for i in range(n - 1, -1, -1):
+        if np.isfinite(d[i]) and d[i] >= 0.6 * strongest:
+            j = i
+            break
+    # That is on the fall's outer flank: walk in to its top.
+    while j > 0 and np.isfinite(d[j - 1]) and d[j - 1] > d[j]:
+        j -= 1
+    lo, hi = max(j - half, 0), min(j + half + 1, n)
+    total = 0.0
+    moment = 0.0
+    for i in range(lo, hi):
+        if np.isfinite(d[i]) and d[i] > 0.0:
+            total += d[i]
+            moment += d[i] * reach[i]
+    return moment / total if total > 0.0 else np.nan
 
 
 #: Triples of rim points tried for the least-median start; fixed, so that a frame
