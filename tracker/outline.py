@@ -344,14 +344,18 @@ def _least_median_circle(points: NDArray) -> NDArray[np.float64]:
         r = math.hypot(ax - ux, ay - uy)
         if not np.isfinite(r):
             continue
-        below = 0
-        for m in range(n):
-            res[m] = abs(math.hypot(points[m, 0] - ux, points[m, 1] - uy) - r)
-            below += res[m] < best
         # The median is under the best only where at least half the residuals are
         # (ceil(n/2) of them): else it cannot be, and is not sorted for (a third of a
-        # pendulum clip's tracking time went to these medians).
-        if below < (n + 1) // 2:
+        # pendulum clip's tracking time went to these medians). A triple with more than
+        # the other half at or over the best is left as soon as that is so.
+        most_over = n - (n + 1) // 2
+        over = 0
+        for m in range(n):
+            res[m] = abs(math.hypot(points[m, 0] - ux, points[m, 1] - uy) - r)
+            over += not res[m] < best
+            if over > most_over:
+                break
+        if over > most_over:
             continue
         med = np.median(res)
         if med < best:
