@@ -21,6 +21,7 @@ Cramér–Rao bound; ``bench/README.md`` says which won.
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -94,9 +95,10 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     theirs.
     ``hold_shape`` keeps the radius and edge width at ``init``'s (:func:`.disc.fit_disc`).
     ``wire_line``: the crank-slider's wire's ends, B and C (px); a followed printed disc
-    out of focus (edge :data:`BAND_EDGE_PX` or more) that it reaches is fitted without
-    the band its shadow darkens (:func:`_wire_band`), at the wire's ends with its
-    shape held where that band is widest (:func:`_held_beside_band`).
+    it crosses (A), or one of its ends out of focus (edge :data:`BAND_EDGE_PX` or
+    more), is fitted without the band the wire and its shadow darken
+    (:func:`_wire_band`), at the wire's ends with its shape held where that band is
+    widest (:func:`_held_beside_band`).
     Returns the centre and the chroma seen in its middle.
     """
     if rim is True and init is not None:
@@ -127,7 +129,8 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     hold = hold_shape and init is not None
     band = None
     if wire and wire_line is not None and init is not None and len(init) >= 4 \
-            and init[3] >= BAND_EDGE_PX and _off_line(guess, wire_line) <= radius:
+            and _off_line(guess, wire_line) <= radius \
+            and (init[3] >= BAND_EDGE_PX or not _at_wire_end(guess, wire_line, radius)):
         band = _wire_band(alpha.shape, x0, y0, wire_line, init[3], radius)
         whole, alpha = alpha, np.where(band, np.nan, alpha)
         hold = hold or _held_beside_band(guess, wire_line, init[3], radius)
@@ -186,8 +189,14 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
     return Centre(c.x, c.y, c.sigma, c.radius, True), seen
 
 
-#: A printed disc whose edge is blurred over this many px or more (out of focus; 1.2-1.5
-#: in focus on H.264) is fitted without a band along the wire (:func:`_wire_band`).
+#: A printed disc the wire crosses is fitted without a band along it (:func:`_wire_band`);
+#: at the wire's ends, B and C, only when its edge is blurred over this many px or more
+#: (out of focus; 1.2-1.5 in focus on H.264). In focus, B and C are fitted without the
+#: wire's pixels found as a dark line (:func:`_line_across`): with the band, B moved
+#: further off on the second renderer's bed (θ 0.0864 / 0.0572° -> 0.0870 / 0.0677°).
+#: A took the line's way too until stop 53: where the wire swept across its rim it
+#: moved A by 0.2-0.3 px across the wire, and θ's error on that bed was 0.207 /
+#: 0.166° RMS; with the band, 0.106 / 0.098° (bench/README.md, stop 53).
 BAND_EDGE_PX = 1.8
 #: ...as wide as the wire's shadow spreads: this many edge widths either side, and
 #: WIRE_HALF_PX for the wire itself.
@@ -228,9 +237,16 @@ def _held_beside_band(guess: tuple[float, float],
     0.12 with the band along the whole line; and held on the project's own 480×270
     render (discs of 5.6 px, edges 1.6–1.8 px, whose band is capped by the small
     radius), C moved 0.04 px toward B (bench/README.md, stop 52)."""
-    end = min(np.hypot(guess[0] - p[0], guess[1] - p[1]) for p in line) <= radius
     wanted = WIRE_HALF_PX + BAND_EDGES * edge_px
-    return bool(end and wanted >= HOLD_OVER * BAND_MOST * radius and edge_px >= HOLD_EDGE_PX)
+    return bool(_at_wire_end(guess, line, radius) and wanted >= HOLD_OVER * BAND_MOST * radius
+                and edge_px >= HOLD_EDGE_PX)
+
+
+def _at_wire_end(guess: tuple[float, float],
+                 line: tuple[tuple[float, float], tuple[float, float]], radius: float) -> bool:
+    """Is a disc at ``guess`` (px) one of the wire's ends, B or C (``line``): within
+    ``radius`` of one?"""
+    return min(math.hypot(guess[0] - p[0], guess[1] - p[1]) for p in line) <= radius
 
 
 def _across(x: NDArray | float, y: NDArray | float,
