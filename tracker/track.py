@@ -434,6 +434,16 @@ def _wire_band_px(centre: Centre) -> float:
     return wire_band_half_px(centre.params[3], centre.radius)
 
 
+#: While a printed disc's size is being learned, its fit may lie at most this many of its
+#: blob's radii from the blob's centroid. The wire across A, 4 px from its centre,
+#: blurred by a lens 2-2.5 px out of focus, left a disc fit of 7 px (10.4 drawn) on
+#: the larger side, 0.31-0.41 radii off: learned so, A was followed 0.5-4 px off for
+#: the whole clip (the second renderer's bed, case 2; θ 1.1-1.9° off). The fits
+#: learned on the bench's other renders lay 0.00-0.12 radii off (bench/README.md,
+#: stop 53).
+LEARN_DRIFT = 0.2
+
+
 def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
                  ) -> tuple[Centre | None, NDArray | None, str]:
     """The refined centre on a blob, what it saw, and why it failed ("" if it did not)."""
@@ -477,6 +487,9 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
                 # No disc fitted, only the blob's centroid (refine's fallback for an
                 # acquisition): a printed disc is fitted as one.
                 return _or_held(frame, state, blob, (None, None, "refine_failed"))
+            if (state.learning or state.radius is None) and np.hypot(
+                    centre.x - blob.x, centre.y - blob.y) > LEARN_DRIFT * blob.radius:
+                return None, None, "refine_failed"
             return _or_held(frame, state, blob,
                             _whole_or_refitted(frame, state, centre, seen, radius, luminance))
         state.rim = ball
