@@ -217,8 +217,10 @@ def _ray_drops(alpha: NDArray, dx: NDArray, dy: NDArray, cx: np.float32, cy: np.
     sample's four pixels are not all defined (outside the patch or the unmixed window;
     that ends the ray). In float32, each row's two steps and the step between them
     rounded once each, as OpenCV 5's ``remap`` (INTER_LINEAR, a NaN border) samples:
-    the same values to the bit, which a test checks; fused here, the remap's arrays
-    and the differences between them cost as much as the rim search itself."""
+    the same values to the bit, which a test checks on this whole-array form.
+    :func:`_rim_points` takes the same steps ray by ray (:func:`_sample_ray`,
+    :func:`_ray_falls`): through ``remap``'s arrays, and the differences between them,
+    the sampling cost as much as the rim search itself."""
     rays, n = dx.shape
     a = np.empty(n, np.float32)
     drop = np.full((rays, n), np.nan, np.float32)

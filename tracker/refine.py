@@ -194,9 +194,9 @@ def refine(image: Frame | NDArray[np.uint8], guess: tuple[float, float], radius:
 #: (out of focus; 1.2-1.5 in focus on H.264). In focus, B and C are fitted without the
 #: wire's pixels found as a dark line (:func:`_line_across`): with the band, B moved
 #: further off on the second renderer's bed (θ 0.0864 / 0.0572° -> 0.0870 / 0.0677°).
-#: A took the line's way too until stop 53: where the wire swept across its rim it
-#: moved A by 0.2-0.3 px across the wire, and θ's error on that bed was 0.207 /
-#: 0.166° RMS; with the band, 0.106 / 0.098° (bench/README.md, stop 53).
+#: On A the dark line found is not enough: where the wire swept across A's rim it moved
+#: A by 0.2-0.3 px across the wire, and θ's error on that bed was 0.207 / 0.166° RMS;
+#: with the band, 0.106 / 0.098° (bench/README.md, stop 53).
 BAND_EDGE_PX = 1.8
 #: ...as wide as the wire's shadow spreads: this many edge widths either side, and
 #: WIRE_HALF_PX for the wire itself.
