@@ -369,6 +369,7 @@ def _span(start: tuple[float, str] | None, end: tuple[float, str] | None):
 
 def cmd_inspect(args: argparse.Namespace) -> int:
     from .report.survey import write_survey_png
+    from .tracker.lighting import settling_note
     from .tracker.marker_state import rig_focus_note
     from .tracker.survey import crank_slider, frame_and_later, rig_edges, survey
     from .tracker.video import open_frames
@@ -382,6 +383,9 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     if frame.t_s < args.at:
         print(f"the clip ends before --at {args.at:g} s: its last frame is shown")
     table = survey(frame.rgb, most=args.most, later=None if later is None else later.rgb)
+    if later is not None and (note := settling_note(frame.light, later.light, frame.t_s,
+                                                     later.t_s)):
+        print(note)
     out = Path(args.out) if args.out else video.with_name(video.stem + "_inspect.png")
     write_survey_png(out, frame.rgb, table)
     if table.empty:

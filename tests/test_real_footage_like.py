@@ -154,6 +154,28 @@ def test_inspect_lists_each_marker_with_a_marker_option_that_tracks_it(tmp_path,
     assert (tmp_path / "run" / "tracks.csv").exists()
 
 
+def test_inspect_says_when_the_light_is_still_settling(tmp_path, capsys):
+    # yupi's rover clip opens 2.3-2.5× darker than 0.2 s later (its camera's exposure
+    # settling): its red pivot was then too dim for the value floor, and `inspect` at
+    # 0 s listed neither it nor the LED, with nothing said. Here the first picture is a
+    # third as bright as the rest; a clip lit the same throughout says nothing.
+    import cv2
+
+    from cranktrack.cli import main
+
+    image = draw([(60.3, 90.6, 6.0, (200.0, 40.0, 40.0))], background=(150.0, 140.0, 130.0))
+    for name, first in (("settling", 0.35), ("steady", 1.0)):
+        frames = tmp_path / name
+        frames.mkdir()
+        for i in range(4):
+            picture = (image * (first if i == 0 else 1.0)).astype(np.uint8)
+            cv2.imwrite(str(frames / f"f{i:03d}.png"), cv2.cvtColor(picture, cv2.COLOR_RGB2BGR))
+        assert main(["inspect", str(frames), "--fps", "10", "--out",
+                     str(tmp_path / f"{name}.png")]) == 0
+        said = "exposure settling" in capsys.readouterr().out
+        assert said == (name == "settling"), name
+
+
 def test_inspect_puts_the_marker_that_moves_first_and_specks_last():
     from cranktrack.tracker.survey import survey
 

@@ -70,6 +70,26 @@ def light_change(ratio: NDArray) -> float:
     return float(np.max(np.abs(np.log(ratio))))
 
 
+def settling_note(light: NDArray, later: NDArray, t_s: float, later_s: float) -> str | None:
+    """What ``inspect`` should say where a frame's light (at ``t_s``) and a frame's a
+    little later (at ``later_s``; R, G, B in DN, :meth:`.video.Frame.light`) differ by
+    more than :data:`LIGHT_SURE`: a camera's exposure still settling at the start of a
+    clip (yupi's rover clip: 2.3-2.5× darker at 0 s than 0.2 s on), which dims every
+    marker below the value floors, so that some are not listed. None where they agree.
+
+    >>> settling_note(np.array([52.0, 42.0, 38.0]), np.array([118.0, 103.0, 97.0]), 0.0, 0.2)[:60]
+    'the light at 0.000 s is 0.42× what it is at 0.200 s (a camer'
+    >>> settling_note(np.array([120.0, 100.0, 90.0]), np.array([118.0, 101.0, 92.0]), 0.0, 0.2)
+    """
+    ratio = light_ratio(light, later)
+    if ratio is None or light_change(ratio) <= LIGHT_SURE:
+        return None
+    overall = float(LUMA_WEIGHTS @ ratio)
+    return (f"the light at {t_s:.3f} s is {overall:.2f}× what it is at {later_s:.3f} s (a "
+            "camera's exposure settling, or a lamp): markers it dims or brightens may be "
+            "missing from this list; inspect a later frame too (--at)")
+
+
 def lighting_notes(lights: Sequence[NDArray]) -> list[str]:
     """What a user should hear of the light of a run's frames (R, G, B in DN, one per
     frame, in order): where it stepped between neighbouring frames, how often and how
