@@ -787,6 +787,7 @@ def _locate_markers(frame: Frame, state: TrackerState) -> list:
         centre, status = _locate(frame, st, frame.t_s, hsv_cache, predicted,
                                  wire_line if st.spec.flat else None)
         state.balance["gains"] = hsv_cache.get("gains")
+        state.balance["gains_light"] = hsv_cache.get("gains_light")
         if centre is None:
             values += [np.nan, np.nan, np.nan, False, status]
             st.missed += 1  # searched for around its last fix, in a widening window
