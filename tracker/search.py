@@ -96,8 +96,7 @@ def balance_gains(frame: Frame, hsv_cache: dict) -> NDArray[np.float32]:
     :data:`.lighting.LIGHT_SURE` from the light they were taken in. Yupi's rover clip
     opens 2.4× darker and redder than it is from its third frame on (its camera's
     exposure and white balance settling); with the first frame's gains for the whole
-    run, its red pivot read as magenta and was not found in frames 2-5, nor the LED
-    placed by hand."""
+    run, its red pivot read as magenta and was not found in frames 2-5."""
     taken = hsv_cache.get("gains_light")
     if hsv_cache.get("gains") is None or (taken is not None and _moved(frame.light, taken)):
         hsv_cache["gains"] = white_balance_gains(frame.rgb)
