@@ -43,6 +43,10 @@ class Centre:
     peak: float = np.nan
 
 
+#: A guess this far (px) or more from its patch cannot have a window on it.
+LOST_GUESS_PX = 1e6
+
+
 def weighted_centroid(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
                       radius: float, iterations: int = 3, noise_alpha: float | None = None
                       ) -> Centre:
@@ -62,10 +66,14 @@ def weighted_centroid(alpha: NDArray, x0: float, y0: float, guess: tuple[float, 
         1-σ of α per pixel; estimated from outside the window when omitted.
     """
     h, w = alpha.shape
+    cx, cy = guess
+    if not (abs(cx - x0) < LOST_GUESS_PX and abs(cy - y0) < LOST_GUESS_PX):
+        # A guess from a damaged frame can lie beyond float32's range (the window
+        # below would be empty anyway, with an overflow warning on the way).
+        return Centre(np.nan, np.nan, np.nan, radius, False)
     yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
     xx += x0
     yy += y0
-    cx, cy = guess
     win_r = radius + 2.0
     for _ in range(iterations):
         win = ((xx - cx) ** 2 + (yy - cy) ** 2 <= win_r**2) & np.isfinite(alpha)
