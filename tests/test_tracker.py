@@ -427,7 +427,16 @@ def test_the_rims_rays_sample_the_coverage_as_opencvs_remap_does():
     # bit, NaN where a sample's pixels are outside the patch or undefined.
     import cv2
 
-    from cranktrack.tracker.outline import RIM_HALF, _ray_drops, _ray_grid
+    from cranktrack.tracker.outline import RIM_HALF, _ray_falls, _ray_grid, _sample_ray
+
+    def ray_drops(alpha, dx, dy, cx, cy):
+        """The rim search's falls along every ray, as it takes them ray by ray."""
+        drop = np.full(dx.shape, np.nan, np.float32)
+        a = np.empty(dx.shape[1], np.float32)
+        for k in range(len(dx)):
+            end = _ray_falls(a, _sample_ray(alpha, dx[k], dy[k], cx, cy, a), drop[k])
+            drop[k, end:] = np.nan
+        return drop
 
     rng = np.random.default_rng(5)
     for trial in range(20):
@@ -440,5 +449,5 @@ def test_the_rims_rays_sample_the_coverage_as_opencvs_remap_does():
                       borderMode=cv2.BORDER_CONSTANT, borderValue=np.nan)
         expected = np.full_like(a, np.nan)
         expected[:, RIM_HALF:-RIM_HALF] = a[:, :-2 * RIM_HALF] - a[:, 2 * RIM_HALF:]
-        got = _ray_drops(alpha, dx, dy, cx, cy)
+        got = ray_drops(alpha, dx, dy, cx, cy)
         assert np.array_equal(got, expected, equal_nan=True), trial

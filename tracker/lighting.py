@@ -70,6 +70,13 @@ def light_change(ratio: NDArray) -> float:
     return float(np.max(np.abs(np.log(ratio))))
 
 
+def light_moved(now: NDArray, then: NDArray) -> bool:
+    """Has the light moved by more than :data:`LIGHT_SURE` from ``then`` to ``now``
+    (frame lights, DN)? Not where either is too dark to tell (:func:`light_ratio`)."""
+    ratio = light_ratio(now, then)
+    return ratio is not None and light_change(ratio) > LIGHT_SURE
+
+
 def settling_note(light: NDArray, later: NDArray, t_s: float, later_s: float) -> str | None:
     """What ``inspect`` should say where a frame's light (at ``t_s``) and a frame's a
     little later (at ``later_s``; R, G, B in DN, :meth:`.video.Frame.light`) differ by
@@ -81,10 +88,9 @@ def settling_note(light: NDArray, later: NDArray, t_s: float, later_s: float) ->
     'the light at 0.000 s is 0.42× what it is at 0.200 s (a camer'
     >>> settling_note(np.array([120.0, 100.0, 90.0]), np.array([118.0, 101.0, 92.0]), 0.0, 0.2)
     """
-    ratio = light_ratio(light, later)
-    if ratio is None or light_change(ratio) <= LIGHT_SURE:
+    if not light_moved(light, later):
         return None
-    overall = float(LUMA_WEIGHTS @ ratio)
+    overall = float(LUMA_WEIGHTS @ light_ratio(light, later))
     return (f"the light at {t_s:.3f} s is {overall:.2f}× what it is at {later_s:.3f} s (a "
             "camera's exposure settling, or a lamp): markers it dims or brightens may be "
             "missing from this list; inspect a later frame too (--at)")

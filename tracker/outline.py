@@ -209,32 +209,16 @@ def _fma32(p: float, q: float, r: float) -> float:
 
 
 @njit(cache=True, nogil=True)
-def _ray_drops(alpha: NDArray, dx: NDArray, dy: NDArray, cx: np.float32, cy: np.float32
-               ) -> NDArray:
-    """α sampled along each ray from (``cx``, ``cy``) (patch px) at the offsets ``dx``,
-    ``dy`` (:func:`_ray_grid`), bilinear, and its fall over 2 px (:data:`RIM_HALF`
-    samples either side) at each sample: NaN within 1 px of a ray's ends, and where a
-    sample's four pixels are not all defined (outside the patch or the unmixed window;
-    that ends the ray). In float32, each row's two steps and the step between them
-    rounded once each, as OpenCV 5's ``remap`` (INTER_LINEAR, a NaN border) samples:
-    the same values to the bit, which a test checks on this whole-array form.
-    :func:`_rim_points` takes the same steps ray by ray (:func:`_sample_ray`,
-    :func:`_ray_falls`): through ``remap``'s arrays, and the differences between them,
-    the sampling cost as much as the rim search itself."""
-    rays, n = dx.shape
-    a = np.empty(n, np.float32)
-    drop = np.full((rays, n), np.nan, np.float32)
-    for k in range(rays):
-        end = _ray_falls(a, _sample_ray(alpha, dx[k], dy[k], cx, cy, a), drop[k])
-        drop[k, end:] = np.nan
-    return drop
-
-
-@njit(cache=True, nogil=True)
 def _sample_ray(alpha: NDArray, dx: NDArray, dy: NDArray, cx: np.float32, cy: np.float32,
                 a: NDArray) -> int:
-    """One ray's samples of α into ``a`` (see :func:`_ray_drops`); returns how many
-    were read: past that the ray has left the patch, and ``a`` is NaN."""
+    """One ray's samples of α into ``a``: from (``cx``, ``cy``) (patch px) at the offsets
+    ``dx``, ``dy`` (a row of :func:`_ray_grid`'s), bilinear, NaN where a sample's four
+    pixels are not all defined (outside the patch or the unmixed window). In float32,
+    each row's step and the step between the rows rounded once each, as OpenCV 5's
+    ``remap`` (INTER_LINEAR, a NaN border) samples: the same values to the bit, which a
+    test checks. Through ``remap``'s arrays, and the differences between them, the
+    sampling cost as much as the rim search itself. Returns how many samples were
+    read: past that the ray has left the patch, and ``a`` is NaN."""
     h, w = alpha.shape
     n = len(dx)
     inside = False

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from .lighting import LIGHT_SURE, light_change, light_ratio
+from .lighting import light_moved
 from .marker_state import MarkerState
 from .markers import (
     AREA_GATE,
@@ -98,16 +98,10 @@ def balance_gains(frame: Frame, hsv_cache: dict) -> NDArray[np.float32]:
     exposure and white balance settling); with the first frame's gains for the whole
     run, its red pivot read as magenta and was not found in frames 2-5."""
     taken = hsv_cache.get("gains_light")
-    if hsv_cache.get("gains") is None or (taken is not None and _moved(frame.light, taken)):
+    if hsv_cache.get("gains") is None or (taken is not None and light_moved(frame.light, taken)):
         hsv_cache["gains"] = white_balance_gains(frame.rgb)
         hsv_cache["gains_light"] = frame.light
     return hsv_cache["gains"]
-
-
-def _moved(light: NDArray, then: NDArray) -> bool:
-    """Has the light moved by more than :data:`.lighting.LIGHT_SURE` from ``then``?"""
-    ratio = light_ratio(light, then)
-    return ratio is not None and light_change(ratio) > LIGHT_SURE
 
 
 def full_hsv(frame: Frame, hsv_cache: dict) -> NDArray[np.uint8]:
