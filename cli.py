@@ -372,12 +372,16 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     from .tracker.lighting import settling_note
     from .tracker.marker_state import rig_focus_note
     from .tracker.survey import crank_slider, frame_and_later, rig_edges, survey
-    from .tracker.video import open_frames
+    from .tracker.video import open_frames, sequence_of
 
     video = Path(args.video)
     # A second frame a little later tells what moves: what people film markers for.
-    frame, later = frame_and_later(open_frames(video, fps=args.fps).frames(),
+    frame, later = frame_and_later(open_frames(video, fps=args.fps, one_picture=True).frames(),
                                    lambda f: f.t_s >= args.at)
+    # One picture of a numbered sequence: the commands below track its folder, and the
+    # PNG is not written in among the frames.
+    sequence = sequence_of(video)
+    clip = video.parent if sequence else video
     if frame is None:
         raise CranktrackError(f"{video} has no frames")
     if frame.t_s < args.at:
@@ -386,7 +390,8 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     if later is not None and (note := settling_note(frame.light, later.light, frame.t_s,
                                                      later.t_s)):
         print(note)
-    out = Path(args.out) if args.out else video.with_name(video.stem + "_inspect.png")
+    out = Path(args.out) if args.out else clip.with_name(
+        (f"{clip.name}_{video.stem}" if sequence else video.stem) + "_inspect.png")
     write_survey_png(out, frame.rgb, table)
     if table.empty:
         print(f"no compact blob of one colour, white or black in frame {frame.index} "
@@ -406,7 +411,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
         picks = " ".join(f"--marker {m}" for m in (whole if len(whole) else table)["marker"]
                          .head(3))
         # A folder of pictures has no clock: the command needs the rate given here.
-        fps = f" --fps {args.fps:g}" if args.fps else ""
+        fps = f" --fps {args.fps:g}" if args.fps else " --fps FPS" if sequence else ""
         # Quoted, so that a path with spaces (Tracker's examples have them) pastes.
         rig = crank_slider(table)
         if rig is not None:
@@ -414,12 +419,15 @@ def cmd_inspect(args: argparse.Namespace) -> int:
             print("\na green, a red and a blue disc: the crank-slider's A, B and C. Track "
                   "them under those names (then the wire across them is allowed for and "
                   "the kinematics know which is which), with the A–C length you measured:"
-                  f"\n  cranktrack track {shlex.quote(str(video))}{fps} {named} "
+                  f"\n  cranktrack track {shlex.quote(str(clip))}{fps} {named} "
                   "--known-length A-C=MM --out run")
             if note := rig_focus_note(rig_edges(frame, table)):
                 print(note)
         print("\nrename the ones you want and track them, e.g.:\n  cranktrack track "
-              f"{shlex.quote(str(video))}{fps} {picks} --out run")
+              f"{shlex.quote(str(clip))}{fps} {picks} --out run")
+        if sequence and not args.fps:
+            print(f"({video.name} is one of {sequence} numbered pictures: the command tracks "
+                  "their folder; FPS is the rate they were taken at)")
     print(f"wrote {out}")
     return 0
 

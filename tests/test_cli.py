@@ -122,6 +122,32 @@ def test_empty_file(tmp_path):
     _one_sentence_error(_run("track", str(empty), "--out", str(tmp_path / "r")), "empty")
 
 
+def test_one_picture_of_a_sequence_is_inspected_and_its_folder_tracked(tmp_path, capsys,
+                                                                       monkeypatch):
+    # A user who opens Tracker's "…00.jpg" is shown that frame, and told the command
+    # that tracks the folder; the PNG is written beside the folder, not among its frames.
+    import cv2
+
+    frames = tmp_path / "car"
+    frames.mkdir()
+    for k in range(3):
+        image = np.full((90, 120, 3), 30, np.uint8)
+        cv2.circle(image, (40 + 5 * k, 45), 8, (40, 200, 60), -1)  # BGR: green
+        cv2.imwrite(str(frames / f"car{k:02d}.png"), image)
+    one = frames / "car00.png"
+    _one_sentence_error(_run("track", str(one), "--out", str(tmp_path / "r")),
+                        "car00.png", "one of 3 numbered pictures", "--fps")
+    assert main(["inspect", str(one)]) == 0
+    out = capsys.readouterr().out
+    assert f"cranktrack track {frames} --fps FPS --marker" in out
+    assert sorted(q.name for q in frames.iterdir()) == ["car00.png", "car01.png", "car02.png"]
+    assert (tmp_path / "car_car00_inspect.png").exists()
+    command = next(line for line in out.splitlines() if "cranktrack track" in line)
+    monkeypatch.chdir(tmp_path)
+    assert main(command.replace("FPS", "25").split()[1:]) == 0
+    assert len(pd.read_csv(tmp_path / "run" / "tracks.csv")) == 3
+
+
 def test_bad_known_length(small_h264, tmp_path):
     _one_sentence_error(_run("track", str(small_h264.video), "--out", str(tmp_path / "r"),
                              "--known-length", "A-C"), "NAME-NAME=MILLIMETRES")

@@ -254,3 +254,45 @@ def test_an_avi_cut_short_is_called_truncated_though_its_pictures_fill_what_is_l
     assert 10 < len(got) < 50 and src.expected_frames == 60
     assert any("truncated or damaged" in p for p in src.problems), src.problems
     assert not any("not cut short" in p for p in src.problems)
+
+
+def _pictures(folder, names, values=None):
+    folder.mkdir(exist_ok=True)
+    for k, name in enumerate(names):
+        value = k if values is None else values[k]
+        cv2.imwrite(str(folder / name), np.full((20, 30, 3), value, np.uint8))
+
+
+def test_a_folders_frames_are_its_pictures_numbered_alike(tmp_path):
+    # `inspect` on one of Tracker's frames wrote "…00_inspect.png" in among them; read
+    # as the folder's pictures in name order, it became frame 1 of the clip. Here a
+    # thumbnail and such a PNG (value 200) are left out, and said so.
+    _pictures(tmp_path / "clip", [f"Car{k:02d}.jpg" for k in range(5)])
+    _pictures(tmp_path / "clip", ["Car00_inspect.png", "thumbnail.png"], [200, 200])
+    src = open_frames(tmp_path / "clip", fps=10.0)
+    values = [int(f.rgb[0, 0, 0]) for f in src.frames()]
+    assert len(values) == 5 and 200 not in values
+    assert src.expected_frames == 5
+    assert any("2 other picture(s)" in p and "Car00_inspect.png" in p for p in src.problems)
+    # Pictures with no common numbering are all frames, in name order, as before.
+    _pictures(tmp_path / "named", ["start.png", "middle.png", "end.png"])
+    src = open_frames(tmp_path / "named", fps=1.0)
+    assert len(list(src.frames())) == 3 and not src.problems
+
+
+def test_two_numbered_sequences_in_one_folder_are_refused(tmp_path):
+    # Two cameras' pictures in one folder, interleaved by name, make no clip.
+    _pictures(tmp_path, [f"left{k}.png" for k in range(3)] + [f"right{k}.png" for k in range(3)])
+    with pytest.raises(CranktrackError, match=r"2 numbered sequences.*folder of its own"):
+        open_frames(tmp_path, fps=10.0)
+
+
+def test_one_picture_of_a_numbered_sequence_is_not_taken_for_a_clip(tmp_path):
+    # Tracked alone, one frame of a clip gives no motion; `inspect` may show it.
+    _pictures(tmp_path / "clip", [f"frame_{k:03d}.png" for k in range(4)])
+    one = tmp_path / "clip" / "frame_002.png"
+    with pytest.raises(CranktrackError, match=r"one of 4 numbered pictures.*--fps"):
+        open_frames(one)
+    assert [int(f.rgb[0, 0, 0]) for f in open_frames(one, one_picture=True).frames()] == [2]
+    _pictures(tmp_path / "alone", ["photo.png", "frame_1.png"])
+    assert len(list(open_frames(tmp_path / "alone" / "frame_1.png").frames())) == 1

@@ -432,16 +432,75 @@ def _natural_key(p: Path) -> list:
     return [int(s) if s.isdigit() else s.lower() for s in re.split(r"(\d+)", p.name)]
 
 
-def open_frames(path: str | os.PathLike, fps: float | None = None) -> FrameSource:
+def _numbering(p: Path) -> str:
+    """A picture's name in lower case with each run of digits as ``#``: the pictures of
+    one numbered sequence share it (``frame#.png``)."""
+    return re.sub(r"\d+", "#", p.name.lower())
+
+
+def numbered_pictures(folder: Path) -> tuple[list[Path], list[Path]]:
+    """The frames of a folder of pictures, in natural order, and the other pictures in it.
+
+    The frames are the pictures numbered alike (:func:`_numbering`); a picture named
+    otherwise (a thumbnail, ``inspect``'s PNG of one of the frames) is left out: taken
+    as a frame, it would put a wrong picture, or one of another size, in the clip.
+    Where no two pictures are numbered alike, all are frames, in name order. Two
+    numbered sequences in one folder (two cameras' pictures) are refused, since
+    interleaved by name they would make no clip.
+
+    Raises
+    ------
+    CranktrackError
+        The folder holds more than one numbered sequence.
+    """
+    pictures = sorted((q for q in folder.iterdir() if q.suffix.lower() in IMAGE_SUFFIXES),
+                      key=_natural_key)
+    groups: dict[str, list[Path]] = {}
+    for q in pictures:
+        groups.setdefault(_numbering(q), []).append(q)
+    sequences = [g for key, g in groups.items() if "#" in key and len(g) >= 2]
+    if not sequences:
+        return pictures, []
+    if len(sequences) > 1:
+        listed = ", ".join(f"{g[0].name} … ({len(g)} pictures)" for g in sequences[:3])
+        raise CranktrackError(
+            f"{folder} holds {len(sequences)} numbered sequences of pictures ({listed}); "
+            "put each in a folder of its own")
+    frames = sequences[0]
+    taken = set(frames)
+    return frames, [q for q in pictures if q not in taken]
+
+
+def sequence_of(picture: Path) -> int | None:
+    """How many pictures in ``picture``'s folder are numbered like it
+    (:func:`_numbering`), itself included, where it is one of such a sequence (two or
+    more); None for a video file or a picture on its own."""
+    if picture.suffix.lower() not in IMAGE_SUFFIXES or not picture.is_file():
+        return None
+    key = _numbering(picture)
+    if "#" not in key:
+        return None
+    n = sum(1 for q in picture.parent.iterdir()
+            if q.suffix.lower() in IMAGE_SUFFIXES and _numbering(q) == key)
+    return n if n >= 2 else None
+
+
+def open_frames(path: str | os.PathLike, fps: float | None = None,
+                one_picture: bool = False) -> FrameSource:
     """Open a video file or a folder of numbered images.
 
     Parameters
     ----------
     path : path-like
-        A video file FFmpeg can read, or a folder of images.
+        A video file FFmpeg can read, or a folder of images
+        (:func:`numbered_pictures` says which of them are its frames).
     fps : float, optional
         Frame rate for an image folder (which carries no timestamps). Ignored
         for video files, whose own timestamps are used.
+    one_picture : bool
+        Open a single picture that is one of a numbered sequence (:func:`sequence_of`)
+        as a clip of one frame, as ``inspect`` does. Without it that is refused:
+        tracked alone, one frame of a clip gives no motion.
 
     Raises
     ------
@@ -452,8 +511,7 @@ def open_frames(path: str | os.PathLike, fps: float | None = None) -> FrameSourc
     if not p.exists():
         raise CranktrackError(f"{p} does not exist; check the path")
     if p.is_dir():
-        images = sorted((q for q in p.iterdir() if q.suffix.lower() in IMAGE_SUFFIXES),
-                        key=_natural_key)
+        images, left_out = numbered_pictures(p)
         if not images:
             raise CranktrackError(
                 f"{p} is a folder with no images in it; give a video file or a folder of "
@@ -466,8 +524,19 @@ def open_frames(path: str | os.PathLike, fps: float | None = None) -> FrameSourc
         if first is None:
             raise CranktrackError(f"{images[0]} is not an image OpenCV can read")
         h, w = first.shape[:2]
-        return FrameSource(p, "images", w, h, float(fps), len(images), "images",
-                           _images=images)
+        source = FrameSource(p, "images", w, h, float(fps), len(images), "images",
+                             _images=images)
+        if left_out:
+            shown = ", ".join(q.name for q in left_out[:3]) + (", …" if len(left_out) > 3
+                                                               else "")
+            source.problems.append(
+                f"{len(left_out)} other picture(s) in the folder are not numbered like its "
+                f"{len(images)} frames and were left out ({shown})")
+        return source
+    if not one_picture and (sequence := sequence_of(p)) is not None:
+        raise CranktrackError(
+            f"{p.name} is one of {sequence} numbered pictures in {p.parent}; to use them "
+            "as a clip, give the folder and its frame rate (--fps)")
     if p.stat().st_size == 0:
         raise CranktrackError(f"{p} is empty (0 bytes); it is not a video")
     try:
