@@ -296,3 +296,14 @@ def test_one_picture_of_a_numbered_sequence_is_not_taken_for_a_clip(tmp_path):
     assert [int(f.rgb[0, 0, 0]) for f in open_frames(one, one_picture=True).frames()] == [2]
     _pictures(tmp_path / "alone", ["photo.png", "frame_1.png"])
     assert len(list(open_frames(tmp_path / "alone" / "frame_1.png").frames())) == 1
+
+
+def test_a_picture_of_another_size_is_skipped_and_said(tmp_path):
+    # Its pixels would put a marker elsewhere in the plane; it was tracked as a frame.
+    _pictures(tmp_path, [f"f{k}.png" for k in range(4)])
+    cv2.imwrite(str(tmp_path / "f2.png"), np.full((10, 15, 3), 2, np.uint8))
+    src = open_frames(tmp_path, fps=10.0)
+    frames = list(src.frames())
+    assert [(f.index, f.t_s) for f in frames] == [(0, 0.0), (1, 0.1), (3, 0.3)]
+    assert src.problems == ["f2.png is 15×10 px, not 30×20 like the folder's first picture, "
+                            "and was skipped"]

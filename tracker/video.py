@@ -384,6 +384,13 @@ class FrameSource:
             if bgr is None:
                 self.problems.append(f"{p.name} could not be read as an image and was skipped")
                 continue
+            if bgr.shape[1::-1] != (self.width, self.height):
+                # A picture of another size is not a frame of this clip: its pixels
+                # would put the markers somewhere else in the plane.
+                self.problems.append(
+                    f"{p.name} is {bgr.shape[1]}×{bgr.shape[0]} px, not {self.width}×"
+                    f"{self.height} like the folder's first picture, and was skipped")
+                continue
             # JPEG stores colour at half resolution (almost always): no luminance edges.
             yield Frame(index, index / fps, cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB),
                         full_chroma=p.suffix.lower() not in (".jpg", ".jpeg"))
