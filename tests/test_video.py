@@ -307,3 +307,42 @@ def test_a_picture_of_another_size_is_skipped_and_said(tmp_path):
     assert [(f.index, f.t_s) for f in frames] == [(0, 0.0), (1, 0.1), (3, 0.3)]
     assert src.problems == ["f2.png is 15×10 px, not 30×20 like the folder's first picture, "
                             "and was skipped"]
+
+
+def _stored_turned(path, upright, turns):
+    """An H.264 file holding ``upright`` (RGB) as a phone stores it: the picture turned
+    back by ``turns`` quarter turns, with a display rotation that turns it upright."""
+    stored = np.ascontiguousarray(np.rot90(upright, -turns))
+    with av.open(str(path), "w") as out:
+        s = out.add_stream("libx264", rate=10, options={"crf": "0"})
+        s.width, s.height, s.pix_fmt = stored.shape[1], stored.shape[0], "yuv420p"
+        s.set_display_rotation(90 * turns)
+        for k in range(3):
+            f = av.VideoFrame.from_ndarray(stored, format="rgb24")
+            f.pts, f.time_base = k, fractions.Fraction(1, 10)
+            out.mux(s.encode(f))
+        out.mux(s.encode())
+
+
+@pytest.mark.parametrize("turns", [1, 2, 3])
+def test_a_phones_turned_video_is_read_upright(tmp_path, turns):
+    # A phone filming upright stores its pictures on their side and a display rotation;
+    # players and OpenCV's reader show them upright, and a user's @X,Y and --roi are
+    # read off that picture. The frames were read as stored, on their side.
+    upright = np.full((64, 48, 3), 40, np.uint8)
+    cv2.circle(upright, (14, 44), 5, (40, 200, 60), -1)  # a green disc low on the left
+    path = tmp_path / f"turned{turns}.mp4"
+    _stored_turned(path, upright, turns)
+    src = open_frames(path)
+    assert (src.width, src.height) == (48, 64)
+    frame = next(src.frames())
+    assert frame.size == (48, 64)
+    green = frame.rgb[..., 1].astype(float) - frame.rgb[..., 0]
+    ys, xs = np.nonzero(green > 80)
+    assert abs(xs.mean() - 14) < 0.5 and abs(ys.mean() - 44) < 0.5
+    assert any("turned" in p and "48×64" in p for p in src.problems)
+    # The same pixels as OpenCV's own reader, which turns them upright too (within
+    # the 3 DN between its YUV conversion and ours).
+    ok, bgr = cv2.VideoCapture(str(path)).read()
+    assert ok and bgr.shape[:2] == (64, 48)
+    assert np.abs(frame.rgb.astype(int) - bgr[..., ::-1]).max() <= 4

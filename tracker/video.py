@@ -239,8 +239,10 @@ def _channel_medians(rgb: NDArray) -> NDArray:
     return out
 
 
-def _frame_pixels(frame: av.VideoFrame) -> tuple[NDArray[np.uint8], str, bool, bool]:
-    """The decoder's planes when they can be converted region by region, else RGB;
+def _frame_pixels(frame: av.VideoFrame, turns: int = 0
+                  ) -> tuple[NDArray[np.uint8], str, bool, bool]:
+    """The decoder's planes when they can be converted region by region, else RGB,
+    turned ``turns`` quarter turns counter-clockwise (upright, :func:`upright_turns`);
     whether the chroma is stored at full resolution (:attr:`Frame.full_chroma`); and
     whether 4:2:0 planes are in full range (:attr:`Frame.full_range`)."""
     full = all(c.width == frame.width and c.height == frame.height
@@ -250,8 +252,53 @@ def _frame_pixels(frame: av.VideoFrame) -> tuple[NDArray[np.uint8], str, bool, b
         # FFmpeg's range codes: 0 unspecified, 1 limited (MPEG), 2 full (JPEG);
         # "yuvj420p" is the older way of saying full.
         wide = frame.format.name == "yuvj420p" or frame.color_range == 2
-        return frame.to_ndarray(), "i420", full, wide
-    return frame.to_ndarray(format="rgb24"), "rgb", full, False
+        return _turned_i420(frame.to_ndarray(), turns), "i420", full, wide
+    rgb = frame.to_ndarray(format="rgb24")
+    return (np.ascontiguousarray(np.rot90(rgb, turns)) if turns else rgb), "rgb", full, False
+
+
+def _turned_i420(pixels: NDArray[np.uint8], turns: int) -> NDArray[np.uint8]:
+    """4:2:0 planes laid out as :class:`Frame` holds them (Y, then U and V), each
+    turned ``turns`` quarter turns counter-clockwise. A 2×2 cell's chroma sample
+    stays with its cell: the planes turn alike."""
+    if not turns % 4:
+        return pixels
+    w = pixels.shape[1]
+    h = pixels.shape[0] * 2 // 3
+    q = h // 4
+    planes = (pixels[:h], pixels[h:h + q].reshape(h // 2, w // 2),
+              pixels[h + q:].reshape(h // 2, w // 2))
+    turned = [np.rot90(plane, turns) for plane in planes]
+    return np.concatenate([t.ravel() for t in turned]).reshape(-1, turned[0].shape[1])
+
+
+def upright_turns(rotation_deg: float | None) -> int:
+    """Quarter turns counter-clockwise (0-3) that show a picture upright, from the
+    display rotation its video file stores (PyAV's ``VideoFrame.rotation``, degrees
+    counter-clockwise): what players and OpenCV's reader apply. A phone filming in
+    portrait stores its pictures on their side with such a rotation. An angle that is
+    not a quarter turn (none seen from a camera) is left as stored.
+
+    >>> upright_turns(90), upright_turns(-90), upright_turns(-180), upright_turns(None)
+    (1, 3, 2, 0)
+    """
+    if rotation_deg is None or not np.isfinite(rotation_deg):
+        return 0
+    turns = float(rotation_deg) / 90.0
+    return round(turns) % 4 if abs(turns - round(turns)) < 1e-6 else 0
+
+
+def _stored_rotation(container: av.container.InputContainer, stream: av.VideoStream
+                     ) -> float | None:
+    """The display rotation (degrees counter-clockwise) of the stream's first picture,
+    or None where none is stored or no picture can be decoded."""
+    try:
+        for packet in container.demux(stream):
+            for frame in packet.decode():
+                return frame.rotation
+    except av.FFmpegError:
+        return None
+    return None
 
 
 @dataclass
@@ -271,6 +318,10 @@ class FrameSource:
     codec: str
     problems: list[str] = field(default_factory=list)
     duration_s: float | None = None  # the container's, to tell a truncated file
+    #: Quarter turns counter-clockwise that bring the stored pictures upright (a phone's
+    #: portrait video is stored on its side with a display rotation, :func:`upright_turns`);
+    #: ``width`` and ``height`` are the upright frame's.
+    quarter_turns: int = 0
     _images: list[Path] = field(default_factory=list, repr=False)
 
     def frames(self, prefetch: int = 0) -> Iterator[Frame]:
@@ -337,7 +388,7 @@ class FrameSource:
                         missing_pts = True
                         n = index + len(pending)
                         t = n / self.nominal_fps if self.nominal_fps else float(n)
-                    pending.append((float(t), _frame_pixels(frame)))
+                    pending.append((float(t), _frame_pixels(frame, self.quarter_turns)))
                     heapq.heappush(times, float(t))
                     if len(pending) > REORDER_DEPTH:
                         yield emit()
@@ -562,8 +613,18 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
                 # A damaged stream header: FFmpeg opens the file but knows no decoder or size.
                 raise CranktrackError(f"{p} has a damaged video stream header (no decoder or "
                                       "frame size in it); it cannot be read")
-            return FrameSource(p, "video", codec.width, codec.height, rate,
-                               s.frames or None, codec.name, duration_s=duration)
+            turns = upright_turns(_stored_rotation(container, s))
+            w, h = (codec.height, codec.width) if turns % 2 else (codec.width, codec.height)
+            source = FrameSource(p, "video", w, h, rate, s.frames or None, codec.name,
+                                 duration_s=duration, quarter_turns=turns)
+            if turns:
+                turn = ("a quarter turn counter-clockwise", "half a turn",
+                        "a quarter turn clockwise")[turns - 1]
+                source.problems.append(
+                    f"the file says to show its pictures turned {turn} (a phone stores them "
+                    f"as its sensor saw them); they are tracked so, upright as players show "
+                    f"them, {w}×{h} px")
+            return source
     except av.FFmpegError as e:
         raise CranktrackError(
             f"{p} is not a video FFmpeg can read ({e.strerror}); if it is a recording that "
