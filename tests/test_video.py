@@ -155,6 +155,36 @@ def test_full_range_h264_keeps_the_planes_and_converts_like_ffmpeg(tmp_path, how
         assert np.abs(video_levels.astype(int) - ref).max() > 15
 
 
+@pytest.mark.parametrize(("tag", "matrix"), [("bt709", 709), ("bt2020nc", 2020)])
+def test_hd_and_hdr_matrices_keep_the_planes_and_convert_like_ffmpeg(tmp_path, tag, matrix):
+    # HD video (phones, most cameras) is in BT.709, a phone's HDR in BT.2020. They were
+    # converted to RGB by FFmpeg whole, every frame: 0.95 s against 0.70 s for the
+    # same 300 frames of 1080p in BT.601, whose planes are kept and read by region.
+    rng = np.random.default_rng(4)
+    img = cv2.GaussianBlur(rng.integers(0, 256, (96, 128, 3), dtype=np.uint8), (0, 0), 3)
+    img = cv2.normalize(img, None, 16, 235, cv2.NORM_MINMAX)
+    path = tmp_path / f"{tag}.mp4"
+    with av.open(str(path), "w") as out:
+        s = out.add_stream("libx264", rate=30,
+                           options={"crf": "10", "x264-params": f"colormatrix={tag}"})
+        s.width, s.height, s.pix_fmt = 128, 96, "yuv420p"
+        for k in range(2):
+            frame = av.VideoFrame.from_ndarray(img, format="rgb24").reformat(
+                format="yuv420p", dst_colorspace=1 if matrix == 709 else 9)
+            frame.pts = k
+            out.mux(s.encode(frame))
+        out.mux(s.encode())
+    frames = list(open_frames(path).frames())
+    assert frames[0].layout == "i420" and frames[0].matrix == matrix
+    with av.open(str(path)) as c:
+        ffmpeg = [f.to_ndarray(format="rgb24") for f in c.decode(c.streams.video[0])]
+    for mine, ref in zip(frames, ffmpeg, strict=True):
+        d = mine.region(0, 0, 128, 96).astype(int) - ref
+        assert np.abs(d).max() <= 3 and np.abs(d).mean() < 2.0
+        as_601 = Frame(mine.index, mine.t_s, mine.pixels, mine.layout).rgb
+        assert np.abs(as_601.astype(int) - ref).max() > 10
+
+
 def test_an_h264_render_written_again_is_the_same(tmp_path):
     # The same frames must code to the same pictures, or no render (and no figure
     # measured on one) can be made again. A still scene with fresh sensor noise in

@@ -45,9 +45,10 @@ REORDER_DEPTH = 8
 ONE_DECODER_THREAD_PX = 500_000
 
 
-#: FFmpeg colour-space codes whose YUV → RGB matrix is BT.601 (or unspecified,
-#: which FFmpeg also converts as BT.601): unspecified, BT.470BG, SMPTE 170M.
-_BT601 = (2, 5, 6)
+#: FFmpeg colour-space codes and the YUV → RGB matrix (its ITU-R BT number) each names:
+#: unspecified (which FFmpeg also converts as BT.601), BT.470BG and SMPTE 170M are
+#: BT.601; 1 is BT.709 (HD video: phones, most cameras); 9 is BT.2020 (a phone's HDR).
+_MATRICES = {2: 601, 5: 601, 6: 601, 1: 709, 9: 2020}
 
 
 #: About how many pixels :meth:`Frame.light` takes the median of.
@@ -58,15 +59,15 @@ LIGHT_SAMPLES = 2000
 class Frame:
     """One decoded frame: its index in display order, time (s) and pixels.
 
-    ``pixels`` is RGB (h, w, 3), or, for 4:2:0 video in BT.601
-    (``layout == "i420"``), the decoder's own planes (Y, then U and V at half
-    size; shape (3h/2, w)); ``full_range`` says their levels span 0–255 (JPEG
-    levels, as phones and webcams that write ``yuvj420p`` store them) rather
-    than 16–235. The tracker reads small regions on most frames,
-    so converting them alone (:meth:`region`) skips most of the colour
-    conversion a whole RGB frame costs; :attr:`rgb` converts the whole frame
-    when it is needed (a full-frame search). Both use the same conversion
-    (:func:`_i420_to_rgb`), so a region is exactly that part of :attr:`rgb`.
+    ``pixels`` is RGB (h, w, 3), or, for 4:2:0 video (``layout == "i420"``), the
+    decoder's own planes (Y, then U and V at half size; shape (3h/2, w));
+    ``full_range`` says their levels span 0–255 (JPEG levels, as phones and webcams
+    that write ``yuvj420p`` store them) rather than 16–235, and ``matrix`` which
+    BT recommendation's YUV → RGB matrix they are in (601, 709 or 2020). The tracker
+    reads small regions on most frames, so converting them alone (:meth:`region`)
+    skips most of the colour conversion a whole RGB frame costs; :attr:`rgb` converts
+    the whole frame when it is needed (a full-frame search). Both use the same
+    conversion (:func:`_i420_to_rgb`), so a region is exactly that part of :attr:`rgb`.
 
     ``full_chroma`` says whether every pixel was stored with its own colour
     (RGB, 4:4:4, PNG/TIFF/BMP images) rather than sharing it with its
@@ -80,6 +81,11 @@ class Frame:
     layout: str = "rgb"
     full_chroma: bool = True
     full_range: bool = False
+    matrix: int = 601
+
+    @property
+    def _levels(self) -> tuple[float, ...]:
+        return _LEVELS[self.matrix, self.full_range]
 
     @property
     def size(self) -> tuple[int, int]:
@@ -92,7 +98,7 @@ class Frame:
         """The whole frame as RGB (h, w, 3)."""
         if self.layout == "i420":
             w, h = self.size
-            return _i420_to_rgb(*self._planes(), 0, 0, w, h, self.full_range)
+            return _i420_to_rgb(*self._planes(), 0, 0, w, h, self._levels)
         return self.pixels
 
     @cached_property
@@ -104,7 +110,7 @@ class Frame:
         w, h = self.size
         step = 2 * max(1, round(0.5 * np.sqrt(w * h / LIGHT_SAMPLES)))  # even: whole cells
         if self.layout == "i420":
-            return _i420_light(*self._planes(), step, self.full_range)
+            return _i420_light(*self._planes(), step, self._levels)
         sample = self.pixels[::step, ::step].reshape(-1, 3)
         return np.median(sample, axis=0).astype(np.float64)
 
@@ -119,7 +125,7 @@ class Frame:
         for (a, b, c, d), rgb in converted:
             if a <= x0 and b <= y0 and x1 <= c and y1 <= d:
                 return rgb[y0 - b:y1 - b, x0 - a:x1 - a].copy()
-        rgb = _i420_to_rgb(*self._planes(), x0, y0, x1, y1, self.full_range)
+        rgb = _i420_to_rgb(*self._planes(), x0, y0, x1, y1, self._levels)
         converted.append(((x0, y0, x1, y1), rgb))
         return rgb.copy()
 
@@ -146,7 +152,7 @@ class Frame:
         v = V[y0 // 2:y1 // 2, x0 // 2:x1 // 2]
         planes = np.concatenate([Y[y0:y1, x0:x1].ravel(), u.ravel(), v.ravel()])
         return Frame(self.index, self.t_s, planes.reshape(-1, x1 - x0), self.layout,
-                     self.full_chroma, self.full_range)
+                     self.full_chroma, self.full_range, self.matrix)
 
     def _planes(self) -> tuple[NDArray, NDArray, NDArray]:
         w, h = self.size
@@ -155,16 +161,25 @@ class Frame:
                 self.pixels[h + q:].reshape(h // 2, w // 2))
 
 
-#: BT.601 YUV → RGB: luma gain, black level, and the chroma terms (R from V, G from U
-#: and V, B from U), in video range (16–235) and in JPEG's full range (ITU-T T.871).
-_VIDEO_LEVELS = (1.164383, 16.0, 1.596027, 0.391762, 0.812968, 2.017232)
-_JPEG_LEVELS = (1.0, 0.0, 1.402, 0.344136, 0.714136, 1.772)
+#: YUV → RGB by (matrix, full range): luma gain, black level, and the chroma terms (R
+#: from V, G from U and V, B from U), in video range (16–235) and in JPEG's full range
+#: (ITU-T T.871). With Kr, Kb of the matrix (0.299, 0.114 for BT.601; 0.2126, 0.0722
+#: for BT.709; 0.2627, 0.0593 for BT.2020) they are 2(1 − Kr), 2Kb(1 − Kb)/Kg,
+#: 2Kr(1 − Kr)/Kg and 2(1 − Kb), times 255/224 in video range.
+_LEVELS = {
+    (601, False): (1.164383, 16.0, 1.596027, 0.391762, 0.812968, 2.017232),
+    (601, True): (1.0, 0.0, 1.402, 0.344136, 0.714136, 1.772),
+    (709, False): (1.164383, 16.0, 1.792741, 0.213249, 0.532909, 2.112402),
+    (709, True): (1.0, 0.0, 1.5748, 0.187324, 0.468124, 1.8556),
+    (2020, False): (1.164383, 16.0, 1.678674, 0.187326, 0.650424, 2.141772),
+    (2020, True): (1.0, 0.0, 1.4746, 0.164553, 0.571353, 1.8814),
+}
 
 
 @njit(cache=True, nogil=True, inline="always")
 def _yuv_to_rgb(y: int, u: int, v: int, levels: tuple) -> tuple[float, float, float]:
     """One pixel's BT.601 Y, U, V codes → R, G, B (DN, unrounded, unclamped) in
-    ``levels`` (:data:`_VIDEO_LEVELS` or :data:`_JPEG_LEVELS`)."""
+    ``levels`` (one of :data:`_LEVELS`)."""
     gain, black, rv, gu, gv, bu = levels
     luma = gain * (y - black)
     cb, cr = u - 128.0, v - 128.0
@@ -173,8 +188,9 @@ def _yuv_to_rgb(y: int, u: int, v: int, levels: tuple) -> tuple[float, float, fl
 
 @njit(cache=True, nogil=True)
 def _i420_to_rgb(Y: NDArray, U: NDArray, V: NDArray, x0: int, y0: int, x1: int, y1: int,
-                 full_range: bool = False) -> NDArray:
-    """BT.601 YUV 4:2:0 → RGB for a region, in limited (16–235) or full range (0–255).
+                 levels: tuple = _LEVELS[601, False]) -> NDArray:
+    """YUV 4:2:0 → RGB for a region, with one of :data:`_LEVELS` (a matrix, in limited
+    (16–235) or full range (0–255)).
 
     Each chroma sample covers its 2×2 luma cell, as in FFmpeg's fast RGB
     path that the tracker was designed and measured on (the standard BT.601
@@ -184,7 +200,6 @@ def _i420_to_rgb(Y: NDArray, U: NDArray, V: NDArray, x0: int, y0: int, x1: int, 
     moved the centre errors by −10 to +30 % and made the fit's residual so
     smooth that the reported σ fell to a third of the error.
     """
-    levels = _JPEG_LEVELS if full_range else _VIDEO_LEVELS
     out = np.empty((y1 - y0, x1 - x0, 3), np.uint8)
     for i in range(y0, y1):
         for j in range(x0, x1):
@@ -201,13 +216,11 @@ def _i420_to_rgb(Y: NDArray, U: NDArray, V: NDArray, x0: int, y0: int, x1: int, 
 
 
 @njit(cache=True, nogil=True)
-def _i420_light(Y: NDArray, U: NDArray, V: NDArray, step: int, full_range: bool
-                ) -> NDArray:
+def _i420_light(Y: NDArray, U: NDArray, V: NDArray, step: int, levels: tuple) -> NDArray:
     """:meth:`Frame.light` of 4:2:0 planes: the median R, G and B of the pixels at every
     ``step``-th row and column (even), converted as :func:`_i420_to_rgb` converts them
     (unrounded). Compiled: on a 1080p frame beside the decoder's threads the same in
     numpy took 0.4 ms."""
-    levels = _JPEG_LEVELS if full_range else _VIDEO_LEVELS
     rows, cols = (Y.shape[0] + step - 1) // step, (Y.shape[1] + step - 1) // step
     r, g, b = np.empty(rows * cols), np.empty(rows * cols), np.empty(rows * cols)
     n = 0
@@ -240,22 +253,25 @@ def _channel_medians(rgb: NDArray) -> NDArray:
 
 
 def _frame_pixels(frame: av.VideoFrame, turns: int = 0
-                  ) -> tuple[NDArray[np.uint8], str, bool, bool]:
+                  ) -> tuple[NDArray[np.uint8], str, bool, bool, int]:
     """The decoder's planes when they can be converted region by region, else RGB,
     turned ``turns`` quarter turns counter-clockwise (upright, :func:`upright_turns`);
-    whether the chroma is stored at full resolution (:attr:`Frame.full_chroma`); and
-    whether 4:2:0 planes are in full range (:attr:`Frame.full_range`)."""
+    whether the chroma is stored at full resolution (:attr:`Frame.full_chroma`);
+    whether 4:2:0 planes are in full range (:attr:`Frame.full_range`), and their
+    matrix (:attr:`Frame.matrix`)."""
     full = all(c.width == frame.width and c.height == frame.height
                for c in frame.format.components)
     frame = _cells_of_four(_eight_bit(frame))
     if (frame.format.name in ("yuv420p", "yuvj420p") and frame.width % 4 == 0
-            and frame.height % 4 == 0 and frame.colorspace in _BT601):
+            and frame.height % 4 == 0 and frame.colorspace in _MATRICES):
         # FFmpeg's range codes: 0 unspecified, 1 limited (MPEG), 2 full (JPEG);
         # "yuvj420p" is the older way of saying full.
         wide = frame.format.name == "yuvj420p" or frame.color_range == 2
-        return _turned_i420(frame.to_ndarray(), turns), "i420", full, wide
+        return (_turned_i420(frame.to_ndarray(), turns), "i420", full, wide,
+                _MATRICES[frame.colorspace])
     rgb = frame.to_ndarray(format="rgb24")
-    return (np.ascontiguousarray(np.rot90(rgb, turns)) if turns else rgb), "rgb", full, False
+    return ((np.ascontiguousarray(np.rot90(rgb, turns)) if turns else rgb), "rgb", full, False,
+            601)
 
 
 #: Planar YUV of more than 8 bits a sample, little-endian as decoders give it: the
