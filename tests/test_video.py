@@ -185,6 +185,22 @@ def test_hd_and_hdr_matrices_keep_the_planes_and_convert_like_ffmpeg(tmp_path, t
     _converted_like_ffmpeg(path, frames, mean_dn=2.0, plain_off_dn=10)
 
 
+def test_a_width_of_an_odd_number_of_cells_keeps_the_planes(tmp_path):
+    # 854×480 ("480p" of 16:9) is 213.5 chroma cells wide: its frames were converted
+    # whole by FFmpeg, every frame, as only widths a multiple of 4 kept their planes.
+    path = tmp_path / "wide.mp4"
+    img = cv2.GaussianBlur(np.random.default_rng(5).integers(0, 256, (96, 130, 3), np.uint8),
+                           (0, 0), 2)
+    with VideoWriter(path, 130, 96, 30.0) as w:
+        w.write(img, 0.0)
+    frame = next(open_frames(path).frames())
+    assert frame.layout == "i420" and frame.size == (130, 96)
+    with av.open(str(path)) as c:
+        ref = next(c.decode(c.streams.video[0])).to_ndarray(format="rgb24")
+    assert np.abs(frame.rgb.astype(int) - ref).max() <= 3
+    assert np.abs(frame.region(101, 7, 129, 40).astype(int) - ref[7:40, 101:129]).max() <= 3
+
+
 def test_an_h264_render_written_again_is_the_same(tmp_path):
     # The same frames must code to the same pictures, or no render (and no figure
     # measured on one) can be made again. A still scene with fresh sensor noise in

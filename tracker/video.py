@@ -262,7 +262,11 @@ def _frame_pixels(frame: av.VideoFrame, turns: int = 0
     full = all(c.width == frame.width and c.height == frame.height
                for c in frame.format.components)
     frame = _cells_of_four(_eight_bit(frame))
-    if (frame.format.name in ("yuv420p", "yuvj420p") and frame.width % 4 == 0
+    # Planes laid one under another as Frame keeps them need a height that is a
+    # multiple of 4 and an even width, upright and as stored (854×480 is kept; frames
+    # of other sizes are converted whole).
+    across = 4 if turns % 2 else 2
+    if (frame.format.name in ("yuv420p", "yuvj420p") and frame.width % across == 0
             and frame.height % 4 == 0 and frame.colorspace in _MATRICES):
         # FFmpeg's range codes: 0 unspecified, 1 limited (MPEG), 2 full (JPEG);
         # "yuvj420p" is the older way of saying full.
