@@ -362,7 +362,9 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
         "libraries": libraries,
         "created": datetime.now(UTC).isoformat(timespec="seconds"),
         "source": {"path": str(Path(video).resolve()), "kind": source.kind,
-                   "codec": source.codec, "width": source.width, "height": source.height},
+                   "codec": source.codec, "width": source.width, "height": source.height,
+                   **({} if source.pixel_aspect == 1.0 else
+                      {"pixel_aspect": source.pixel_aspect})},
         "markers": {s.name: {"hue_deg": s.hue_deg, "hue_tol_deg": s.hue_tol_deg}
                     for s in specs},
         "tracking": {**result.to_dict(), "fill_gaps_frames": fill_gaps_frames,
@@ -379,7 +381,8 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
     if known_length is not None or calibration is not None:
         measured = _measure_into(folder, tracks, {s.name: s.hue_deg for s in specs},
                                  (source.width, source.height), known_length, calibration,
-                                 window_s, readout_s, on_stage, result.problems)
+                                 window_s, readout_s, on_stage, result.problems,
+                                 pixel_aspect=source.pixel_aspect)
         tracks, cal, kinematics = measured.tracks, measured.calibration, measured.kinematics
         files.update(measured.files)
         warnings += measured.warnings
@@ -416,14 +419,16 @@ def _measure_into(folder: Path, tracks: pd.DataFrame, hues: dict[str, float | No
                   known_length: tuple[str, str, float] | None,
                   calibration: PlaneCalibration | None, window_s: float | None,
                   readout_s: float, on_stage: Callable[[str], None],
-                  problems: list[str], aligned: bool = False) -> _Measured:
+                  problems: list[str], aligned: bool = False,
+                  pixel_aspect: float = 1.0) -> _Measured:
     """Pixels to mm to kinematics, written into ``folder`` as each exists (the
     calibration and the tracks in mm stay on disk if a later step is refused).
     ``calibration`` maps pixels to mm, once aligned to the markers (A at the origin, C
     on +x; ``aligned`` says it is already: a run's own calibration.json), and
     ``known_length`` then only checks it; without it
     ``known_length`` sets the scale. ``hues`` are the markers' (deg, by name; None for
-    one found by brightness); ``size`` is the frame's (width, height), px."""
+    one found by brightness); ``size`` is the frame's (width, height), px, and
+    ``pixel_aspect`` how many times as wide as high its pixels are shown."""
     names = tuple(hues)
     never = [n for n in names if not tracks[f"{n}_ok"].astype(bool).any()]
     if never:
@@ -445,7 +450,8 @@ def _measure_into(folder: Path, tracks: pd.DataFrame, hues: dict[str, float | No
             cal = check_length(cal, tracks, *known_length)
     else:
         a, b, length = known_length
-        cal = calibrate_known_length(tracks, a, b, length, size, axis_to=axis_to)
+        cal = calibrate_known_length(tracks, a, b, length, size, axis_to=axis_to,
+                                     pixel_aspect=pixel_aspect)
     warnings = list(cal.warnings)
     files = {"calibration": save_calibration(folder / CALIBRATION, cal)}
     tracks = add_plane_coordinates(tracks, cal, names)
@@ -548,7 +554,8 @@ def measure_run(run: str | os.PathLike, known_length: tuple[str, str, float] | N
         measured = _measure_into(folder.path, tracks, hues, (width, height), known_length,
                                  calibration, window_s, readout_s,
                                  on_stage or (lambda stage: None), problems,
-                                 aligned=reused)
+                                 aligned=reused,
+                                 pixel_aspect=float(source.get("pixel_aspect") or 1.0))
         files = dict(measured.files)
         warnings = (problems + _found_warnings(tracking.get("found_fraction") or {}, problems)
                     + measured.warnings)

@@ -58,12 +58,16 @@ def calibrate_known_length(
     image_size: tuple[int, int],
     origin: str = "A",
     axis_to: str | None = "C",
+    pixel_aspect: float = 1.0,
 ) -> PlaneCalibration:
     """Scale from the known distance between markers ``a`` and ``b``.
 
     Uses every frame where both are found; the scale comes from the median
     pixel distance. The plane frame has ``origin`` at (0, 0) and ``axis_to``
-    on +x (None: +x along the image's x, +y up).
+    on +x (None: +x along the image's x, +y up). ``pixel_aspect`` is how many times
+    as wide as high a pixel is shown (:attr:`.FrameSource.pixel_aspect`): distances
+    and angles are taken with x widened by it, and ``mm_per_px`` is per pixel of
+    height.
 
     Raises
     ------
@@ -79,7 +83,8 @@ def calibrate_known_length(
         raise CranktrackError(
             f"markers {a} and {b} are never found in the same frame, so their known length "
             "cannot set the scale")
-    d_px = np.hypot(tracks.loc[both, f"{a}_x_px"] - tracks.loc[both, f"{b}_x_px"],
+    d_px = np.hypot(pixel_aspect * (tracks.loc[both, f"{a}_x_px"]
+                                    - tracks.loc[both, f"{b}_x_px"]),
                     tracks.loc[both, f"{a}_y_px"] - tracks.loc[both, f"{b}_y_px"]).to_numpy()
     med = float(np.median(d_px))
     if not med > 0:
@@ -92,7 +97,7 @@ def calibrate_known_length(
         axis = 0.0
     else:
         c = _median_point(tracks, axis_to)
-        axis = float(np.degrees(np.arctan2(-(c[1] - o[1]), c[0] - o[0])))
+        axis = float(np.degrees(np.arctan2(-(c[1] - o[1]), pixel_aspect * (c[0] - o[0]))))
     # The scale's error is that of the two markers' positions, and on compressed
     # video most of a position's error persists from frame to frame (a bias), so
     # the median over frames does not average it away: no 1/√n.
@@ -100,6 +105,7 @@ def calibrate_known_length(
            else 0.0 for m in (a, b)]
     quality = {
         "mm_per_px": mm_per_px,
+        **({} if pixel_aspect == 1.0 else {"pixel_aspect": pixel_aspect}),
         "scale_rel_sigma": float(np.hypot(*sig) / med) if np.all(np.isfinite(sig)) else 0.0,
         "origin_px": list(o),
         "x_axis_deg": axis,
@@ -115,8 +121,11 @@ def calibrate_known_length(
         warnings.append(
             f"the {a}-{b} distance varies by {100 * spread / length_mm:.1f}% (1σ) over the run; "
             "a rigid length should not, so the camera may be tilted or the lens distorting")
-    return PlaneCalibration("known-length", similarity(mm_per_px, o, axis), tuple(image_size),
-                            None, quality, tuple(warnings))
+    # The similarity acts on pixels widened to square: x times the aspect.
+    square = np.diag([pixel_aspect, 1.0, 1.0])
+    homography = similarity(mm_per_px, (pixel_aspect * o[0], o[1]), axis) @ square
+    return PlaneCalibration("known-length", homography, tuple(image_size), None, quality,
+                            tuple(warnings))
 
 
 def check_length(cal: PlaneCalibration, tracks: pd.DataFrame, a: str, b: str,

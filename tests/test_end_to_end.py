@@ -121,3 +121,54 @@ def test_measuring_a_pixel_run_again_gives_what_tracking_with_the_options_gives(
     assert np.max(np.abs(off.kinematics["theta_deg"] - truth["theta_deg"])) < THETA_BOUND_DEG
     info = json.loads((tmp_path / "bare" / "run.json").read_text())
     assert "rolling_shutter_readout_s" not in info["tracking"]
+
+
+def _anamorphic_crank(path, aspect, frames=20):
+    """A crank drawn in square pixels (A fixed, B on a 45 mm circle round it, C 160 mm
+    along +x; 1 mm a pixel), stored squeezed to pixels ``aspect`` times as wide as high,
+    with that sample aspect ratio, as DV and HDV camcorders store it. Returns B's drawn
+    angle, deg, counter-clockwise from A→C."""
+    import fractions
+
+    import av
+    import cv2
+
+    h, w_square = 180, 320
+    a, c = np.array([90.0, 100.0]), np.array([250.0, 100.0])
+    phi = np.radians(30 + 50 * np.sin(2 * np.pi * np.arange(frames) / frames))
+    up = 4  # drawn 4× larger and averaged down: edges to a sixteenth of a pixel
+    with av.open(str(path), "w") as out:
+        s = out.add_stream("libx264", rate=25, options={"crf": "4"})
+        s.width, s.height, s.pix_fmt = round(w_square / aspect), h, "yuv420p"
+        s.codec_context.sample_aspect_ratio = fractions.Fraction(aspect).limit_denominator(100)
+        for k in range(frames):
+            big = np.full((h * up, w_square * up, 3), (200, 200, 195), np.uint8)
+            b = a + 45.0 * np.array([np.cos(phi[k]), -np.sin(phi[k])])
+            for xy, rgb in ((a, (30, 160, 60)), (b, (200, 40, 40)), (c, (40, 60, 200))):
+                centre = np.round(((xy + 0.5) * up - 0.5) * 64).astype(int)
+                cv2.circle(big, tuple(int(v) for v in centre), 9 * up * 64, rgb, -1,
+                           cv2.LINE_AA, 6)
+            picture = cv2.resize(big, (s.width, h), interpolation=cv2.INTER_AREA)
+            frame = av.VideoFrame.from_ndarray(picture, format="rgb24")
+            frame.pts, frame.time_base = k, fractions.Fraction(1, 25)
+            out.mux(s.encode(frame))
+        out.mux(s.encode())
+    return np.degrees(phi)
+
+
+@pytest.mark.parametrize(("aspect", "rms_deg"), [(4 / 3, 0.25), (16 / 15, 0.08)])
+def test_non_square_pixels_give_the_drawn_crank_angle(tmp_path, aspect, rms_deg):
+    # HDV (1440×1080 shown 16:9) and DV camcorders store pixels wider than high. The
+    # known length set one scale for x and y: θ came out up to 8.4° (4:3) and 1.8°
+    # (16:15) off the drawn angle, with warnings blaming the camera's tilt.
+    from cranktrack.pipeline import measure_run
+
+    path = tmp_path / "anamorphic.mp4"
+    truth = _anamorphic_crank(path, aspect)
+    out = track_run(path, tmp_path / "run", known_length=("A", "C", 160.0))
+    err = out.kinematics["theta_deg"].to_numpy() - truth
+    assert np.sqrt(np.nanmean(err**2)) < rms_deg
+    assert any("times as wide as high" in w for w in out.warnings)
+    assert not any("rigid length" in w for w in out.warnings)
+    again = measure_run(tmp_path / "run", known_length=("A", "C", 160.0))
+    np.testing.assert_allclose(again.kinematics["theta_deg"], out.kinematics["theta_deg"])

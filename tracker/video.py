@@ -31,6 +31,10 @@ from ..errors import CranktrackError
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 
+#: A pixel aspect within this of 1 is taken as square: encoders round their ratios
+#: (0.5 % is 0.3° of a crank angle at 45°, at most).
+SQUARE_ENOUGH = 0.005
+
 #: Pictures held back to put timestamps stored in decoding order back in display
 #: order (3 were needed by a webcam H.264 file; H.264 allows up to 16 in theory).
 REORDER_DEPTH = 8
@@ -396,6 +400,10 @@ class FrameSource:
     #: portrait video is stored on its side with a display rotation, :func:`upright_turns`);
     #: ``width`` and ``height`` are the upright frame's.
     quarter_turns: int = 0
+    #: How many times as wide as high a pixel is shown (the sample aspect ratio of the
+    #: upright frame; DV and HDV camcorders store 16:15, 4:3 and the like). Positions
+    #: stay in stored pixels; lengths take this into account (:mod:`.calibration`).
+    pixel_aspect: float = 1.0
     _images: list[Path] = field(default_factory=list, repr=False)
 
     def frames(self, prefetch: int = 0) -> Iterator[Frame]:
@@ -689,8 +697,17 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
                                       "frame size in it); it cannot be read")
             turns = upright_turns(_stored_rotation(container, s))
             w, h = (codec.height, codec.width) if turns % 2 else (codec.width, codec.height)
+            sar = s.sample_aspect_ratio or codec.sample_aspect_ratio
+            aspect = float(sar) if sar and sar > 0 else 1.0
+            aspect = 1.0 / aspect if turns % 2 else aspect
             source = FrameSource(p, "video", w, h, rate, s.frames or None, codec.name,
-                                 duration_s=duration, quarter_turns=turns)
+                                 duration_s=duration, quarter_turns=turns, pixel_aspect=aspect)
+            if abs(aspect - 1.0) > SQUARE_ENOUGH:
+                source.problems.append(
+                    f"the file says its pixels are shown {aspect:.4g} times as wide as high "
+                    f"(sample aspect ratio {sar.numerator}:{sar.denominator}, as DV and HDV "
+                    "camcorders store them): tracks.csv stays in its stored pixels, and "
+                    "lengths, angles and speeds are made with the pixels that wide")
             if turns:
                 turn = ("a quarter turn counter-clockwise", "half a turn",
                         "a quarter turn clockwise")[turns - 1]
