@@ -489,7 +489,6 @@ def test_an_interlaced_videos_fields_are_tracked_as_frames_of_their_own(tmp_path
     np.testing.assert_allclose(tab["t_s"], times, atol=1e-6)
     assert tab["b_ok"].all()
     assert np.abs(tab["b_x_px"] - (30 + 200 * tab["t_s"])).max() < 0.15
-    # Along y each field's colour lies half a line off its lines as a frame's cells
-    # hold it, up for one field and down for the other; the σ takes that in.
-    dy = tab["b_y_px"] - 48
-    assert np.abs(dy).max() < 0.6 and np.mean(np.abs(dy) <= tab["b_sigma_px"]) > 0.6
+    # Each field's colour is coded from its own lines, half a line off where a frame's
+    # cells hold it: without moving it back, y alternated by ±0.45 px field to field.
+    assert np.abs(tab["b_y_px"] - 48).max() < 0.2
