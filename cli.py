@@ -376,8 +376,12 @@ def cmd_inspect(args: argparse.Namespace) -> int:
 
     video = Path(args.video)
     # A second frame a little later tells what moves: what people film markers for.
-    frame, later = frame_and_later(open_frames(video, fps=args.fps, one_picture=True).frames(),
-                                   lambda f: f.t_s >= args.at)
+    source = open_frames(video, fps=args.fps, one_picture=True)
+    frame, later = frame_and_later(source.frames(), lambda f: f.t_s >= args.at)
+    # What the reader says of the file (turned, interlaced, non-square pixels) holds
+    # for the picture and every place in it.
+    for note in dict.fromkeys(source.problems):
+        print(note)
     # One picture of a numbered sequence: the commands below track its folder, and the
     # PNG is not written in among the frames.
     sequence = sequence_of(video)

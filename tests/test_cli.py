@@ -148,6 +148,26 @@ def test_one_picture_of_a_sequence_is_inspected_and_its_folder_tracked(tmp_path,
     assert len(pd.read_csv(tmp_path / "run" / "tracks.csv")) == 3
 
 
+def test_inspect_says_what_the_file_says_of_its_pictures(tmp_path, capsys):
+    # A phone's upright clip is shown turned: the places inspect lists are in the
+    # turned picture, and the user is told so before the first `track`.
+    import fractions
+
+    import av
+
+    path = tmp_path / "phone.mp4"
+    with av.open(str(path), "w") as out:
+        s = out.add_stream("libx264", rate=10)
+        s.width, s.height, s.pix_fmt = 64, 48, "yuv420p"
+        s.set_display_rotation(90)
+        frame = av.VideoFrame.from_ndarray(np.full((48, 64, 3), 90, np.uint8), format="rgb24")
+        frame.pts, frame.time_base = 0, fractions.Fraction(1, 10)
+        out.mux(s.encode(frame))
+        out.mux(s.encode())
+    assert main(["inspect", str(path), "--out", str(tmp_path / "i.png")]) == 0
+    assert "a quarter turn counter-clockwise" in capsys.readouterr().out
+
+
 def test_bad_known_length(small_h264, tmp_path):
     _one_sentence_error(_run("track", str(small_h264.video), "--out", str(tmp_path / "r"),
                              "--known-length", "A-C"), "NAME-NAME=MILLIMETRES")
