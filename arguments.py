@@ -200,13 +200,20 @@ def _thermal_id_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", help="also write the result as JSON here")
 
 
+#: What ``--fps`` says, for every command that reads a video or a folder of pictures.
+FPS_HELP = ("the rate the frames were taken at, per second: an image folder's (needed), "
+            "or a video's that plays them at another rate (a phone's slow motion or "
+            "time-lapse): its own times are scaled to it")
+
+
 def _inspect_command(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("inspect", help="show the candidate markers in one frame of a video and "
                        "the --marker that follows each")
     p.add_argument("video", help="video file or folder of images")
     p.add_argument("--at", type=_non_negative, default=0.0, metavar="SECONDS",
                    help="time of the frame to inspect (0: the first)")
-    p.add_argument("--fps", type=_positive, help="frame rate of an image folder")
+    p.add_argument("--fps", type=_positive, metavar="FPS",
+                   help=FPS_HELP)
     p.add_argument("--most", type=_positive_int, default=12, metavar="N",
                    help="list this many candidates, the most marker-like first (default: 12; "
                    "more when several markers look alike, e.g. a row of paper cups)")
@@ -224,7 +231,8 @@ def _check_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--start", type=_time_or_frame, metavar="S|Nf", help="as for `track`")
     p.add_argument("--end", type=_time_or_frame, metavar="S|Nf", help="as for `track`")
     p.add_argument("--roi", type=_roi, metavar="X,Y,W,H", help="as for `track`")
-    p.add_argument("--fps", type=_positive, help="frame rate of an image folder")
+    p.add_argument("--fps", type=_positive, metavar="FPS",
+                   help=FPS_HELP)
     p.add_argument("--out", help="also write the table as CSV here")
 
 
@@ -267,8 +275,7 @@ def _track_command(sub: argparse._SubParsersAction) -> None:
                         "smaller and faster to load for long runs) beside the CSV files")
     p.add_argument("--fill-gaps", type=_count, default=0, metavar="N",
                    help="interpolate gaps of up to N frames, flagged as interpolated (0: off)")
-    p.add_argument("--fps", dest="fps_images", type=_positive,
-                   help="frame rate of an image folder (videos use their own timestamps)")
+    p.add_argument("--fps", dest="fps_images", type=_positive, metavar="FPS", help=FPS_HELP)
 
 
 def _measure_command(sub: argparse._SubParsersAction) -> None:

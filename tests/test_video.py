@@ -492,3 +492,49 @@ def test_an_interlaced_videos_fields_are_tracked_as_frames_of_their_own(tmp_path
     # Each field's colour is coded from its own lines, half a line off where a frame's
     # cells hold it: without moving it back, y alternated by ±0.45 px field to field.
     assert np.abs(tab["b_y_px"] - 48).max() < 0.2
+
+
+def _slow_motion(path, said_fps=None, frames=12, px_per_frame=3.0):
+    """A red disc moving ``px_per_frame`` along x each frame, stored to play at 30
+    frames a second, with the rate it was taken at written where Android's camera
+    writes it (``said_fps``), if given."""
+    options = {"movflags": "use_metadata_tags"} if said_fps else {}
+    with av.open(str(path), "w", options=options) as out:
+        if said_fps:
+            out.metadata["com.android.capture.fps"] = f"{said_fps:.6f}"
+        s = out.add_stream("libx264", rate=30, options={"crf": "4"})
+        s.width, s.height, s.pix_fmt = 128, 96, "yuv420p"
+        for k in range(frames):
+            big = np.full((96 * 4, 128 * 4, 3), 200, np.uint8)
+            x = 30 + px_per_frame * k
+            cv2.circle(big, (round(((x + 0.5) * 4 - 0.5) * 64), round((48.5 * 4 - 0.5) * 64)),
+                       8 * 4 * 64, (200, 40, 40), -1, cv2.LINE_AA, 6)
+            picture = cv2.resize(big, (128, 96), interpolation=cv2.INTER_AREA)
+            frame = av.VideoFrame.from_ndarray(picture, format="rgb24")
+            frame.pts, frame.time_base = k, fractions.Fraction(1, 30)
+            out.mux(s.encode(frame))
+        out.mux(s.encode())
+
+
+def test_slow_motion_is_timed_as_it_was_taken(tmp_path):
+    # A phone's slow motion, taken at 240 frames a second, plays at 30: on the file's
+    # clock the disc below moves at 90 px/s, 8 times slower than it did (720 px/s).
+    from cranktrack.tracker.markers import parse_markers
+    from cranktrack.tracker.track import track
+
+    said = tmp_path / "android.mp4"
+    _slow_motion(said, said_fps=240.0)
+    source = open_frames(said)
+    assert source.nominal_fps == pytest.approx(240.0) and source.time_scale == 0.125
+    assert any("taken at 240 a second" in p and "--fps 30" in p for p in source.problems)
+    tab = track(source, parse_markers(["b=red"])).tracks
+    np.testing.assert_allclose(tab["t_s"], np.arange(12) / 240, atol=1e-9)
+    speed = np.polyfit(tab["t_s"], tab["b_x_px"], 1)[0]
+    assert speed == pytest.approx(720.0, rel=0.01)
+    # Told by the user (a file that does not say), or kept as the file plays it.
+    plain = tmp_path / "plain.mp4"
+    _slow_motion(plain)
+    assert not open_frames(plain).problems
+    given = open_frames(plain, fps=120.0)
+    assert [f.t_s for f in given.frames()][:3] == pytest.approx([0.0, 1 / 120, 2 / 120])
+    assert open_frames(said, fps=30.0).time_scale == 1.0

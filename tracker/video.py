@@ -366,6 +366,62 @@ def upright_turns(rotation_deg: float | None) -> int:
     return round(turns) % 4 if abs(turns - round(turns)) < 1e-6 else 0
 
 
+#: Where a phone's camera writes the rate its frames were taken at, when it stores them
+#: to play at another (Android: slow motion and time-lapse).
+_TAKEN_FPS_TAGS = ("com.android.capture.fps",)
+
+
+def _said_taken_fps(container: av.container.InputContainer, stream: av.VideoStream
+                    ) -> float | None:
+    """The rate (frames per second) the file says its frames were taken at, if it says."""
+    for tags in (container.metadata, stream.metadata):
+        for key in _TAKEN_FPS_TAGS:
+            try:
+                value = float(tags.get(key, "nan"))
+            except ValueError:
+                continue
+            if np.isfinite(value) and value > 0:
+                return value
+    return None
+
+
+def taking_scale(plays_fps: float | None, given_fps: float | None, said_fps: float | None
+                 ) -> tuple[float, str | None]:
+    """Seconds of the taking per second of a video's own clock, and what to tell the user.
+
+    ``plays_fps`` is the rate the file plays its frames at; ``given_fps`` the rate the
+    user says they were taken at (``--fps``), ``said_fps`` the rate the file says
+    (:data:`_TAKEN_FPS_TAGS`). A phone's slow motion, taken at 240 frames a second and
+    stored to play at 30, moves 8 times too slowly on the file's clock, and every speed
+    measured on it is 8 times too small. Rates within 0.5 % of each other are the same
+    (29.97 and 30: NTSC's rate and its name).
+
+    >>> taking_scale(30.0, None, 240.0)[0], taking_scale(30.0, 120.0, 240.0)[0]
+    (0.125, 0.25)
+    >>> taking_scale(29.97, 30.0, None)
+    (1.0, None)
+
+    Raises
+    ------
+    CranktrackError
+        A rate is given for a video that has none of its own.
+    """
+    taken = given_fps or said_fps
+    if taken is None or (plays_fps and abs(taken / plays_fps - 1.0) <= 0.005):
+        return 1.0, None
+    if not plays_fps:
+        raise CranktrackError(f"--fps {taken:g} cannot be applied: the video gives no frame "
+                              "rate of its own to scale its times from")
+    if given_fps:
+        why = f"taken at {given_fps:g} frames a second (--fps)"
+    else:
+        why = (f"the file says its frames were taken at {said_fps:g} a second (slow motion "
+               f"or time-lapse); give --fps {plays_fps:g} to keep its own times")
+    return plays_fps / taken, (
+        f"the video plays its frames at {plays_fps:g} a second; its times are scaled by "
+        f"{plays_fps / taken:.4g} to those of the taking, {why}")
+
+
 def _first_picture(container: av.container.InputContainer, stream: av.VideoStream
                    ) -> tuple[float | None, bool]:
     """The display rotation (degrees counter-clockwise, None where none is stored) of
@@ -480,6 +536,9 @@ class FrameSource:
     #: apart, and each field is read as a frame of its own (:class:`_Fields`), at
     #: twice the stored rate (``nominal_fps`` and ``expected_frames`` are the fields').
     fields: bool = False
+    #: Seconds of the taking per second of the file's own clock: 1/8 for a phone's slow
+    #: motion taken at 240 frames a second and stored to play at 30 (:func:`taking_scale`).
+    time_scale: float = 1.0
     _images: list[Path] = field(default_factory=list, repr=False)
 
     def frames(self, prefetch: int = 0) -> Iterator[Frame]:
@@ -514,7 +573,7 @@ class FrameSource:
             """Hold a decoded picture with its time; whether it had none of its own."""
             t = frame.time
             if t is not None:
-                t_s = float(t)
+                t_s = float(t) * self.time_scale
             else:
                 n = index + len(pending)
                 t_s = n / self.nominal_fps if self.nominal_fps else float(n)
@@ -720,8 +779,10 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
         A video file FFmpeg can read, or a folder of images
         (:func:`numbered_pictures` says which of them are its frames).
     fps : float, optional
-        Frame rate for an image folder (which carries no timestamps). Ignored
-        for video files, whose own timestamps are used.
+        The rate the frames were taken at (frames per second): an image folder's (which
+        carries no timestamps), or a video's where it plays them at another rate (slow
+        motion, time-lapse): its own timestamps are then scaled to it
+        (:func:`taking_scale`).
     one_picture : bool
         Open a single picture that is one of a numbered sequence (:func:`sequence_of`)
         as a clip of one frame, as ``inspect`` does. Without it that is refused:
@@ -780,6 +841,7 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
                 # A damaged stream header: FFmpeg opens the file but knows no decoder or size.
                 raise CranktrackError(f"{p} has a damaged video stream header (no decoder or "
                                       "frame size in it); it cannot be read")
+            scale, taken = taking_scale(rate, fps, _said_taken_fps(container, s))
             rotation, interlaced = _first_picture(container, s)
             turns = upright_turns(rotation)
             w, h = (codec.height, codec.width) if turns % 2 else (codec.width, codec.height)
@@ -787,16 +849,19 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
             aspect = float(sar) if sar and sar > 0 else 1.0
             aspect = 1.0 / aspect if turns % 2 else aspect
             per_frame = 2 if interlaced else 1  # an interlaced frame's fields are frames
-            source = FrameSource(p, "video", w, h, rate and per_frame * rate,
+            source = FrameSource(p, "video", w, h, rate and per_frame * rate / scale,
                                  (s.frames or 0) * per_frame or None, codec.name,
-                                 duration_s=duration, quarter_turns=turns, pixel_aspect=aspect,
-                                 fields=interlaced)
+                                 duration_s=duration and duration * scale, quarter_turns=turns,
+                                 pixel_aspect=aspect, fields=interlaced, time_scale=scale)
+            if taken is not None:
+                source.problems.append(taken)
             if interlaced:
                 source.problems.append(
                     f"the video is interlaced: each of its frames holds two fields taken "
-                    f"{500 / rate if rate else float('nan'):.3g} ms apart; each field is "
-                    f"tracked as a frame of its own, {2 * rate if rate else float('nan'):g} a "
-                    "second, its missing lines filled in as players fill them (FFmpeg's bwdif)")
+                    f"{500 * scale / rate if rate else float('nan'):.3g} ms apart; each field "
+                    f"is tracked as a frame of its own, "
+                    f"{2 * rate / scale if rate else float('nan'):g} a second, its missing "
+                    "lines filled in as players fill them (FFmpeg's bwdif)")
             if abs(aspect - 1.0) > SQUARE_ENOUGH:
                 source.problems.append(
                     f"the file says its pixels are shown {aspect:.4g} times as wide as high "
