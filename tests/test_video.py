@@ -538,3 +538,28 @@ def test_slow_motion_is_timed_as_it_was_taken(tmp_path):
     given = open_frames(plain, fps=120.0)
     assert [f.t_s for f in given.frames()][:3] == pytest.approx([0.0, 1 / 120, 2 / 120])
     assert open_frames(said, fps=30.0).time_scale == 1.0
+
+
+def test_a_cover_picture_before_the_video_is_not_tracked(tmp_path):
+    # A file whose first video stream is a one-picture cover (as some downloads and
+    # editors write) was tracked as that one still frame.
+    path = tmp_path / "covered.mkv"
+    with av.open(str(path), "w") as out:
+        cover = out.add_stream("mjpeg", rate=1)
+        cover.width, cover.height, cover.pix_fmt = 64, 48, "yuvj420p"
+        video = out.add_stream("libx264", rate=10)
+        video.width, video.height, video.pix_fmt = 64, 48, "yuv420p"
+        still = av.VideoFrame.from_ndarray(np.full((48, 64, 3), 200, np.uint8), format="rgb24")
+        still.pts, still.time_base = 0, fractions.Fraction(1, 1)
+        out.mux(cover.encode(still.reformat(format="yuvj420p")))
+        out.mux(cover.encode())
+        for k in range(5):
+            frame = av.VideoFrame.from_ndarray(np.full((48, 64, 3), 40 * k, np.uint8),
+                                               format="rgb24")
+            frame.pts, frame.time_base = k, fractions.Fraction(1, 10)
+            out.mux(video.encode(frame))
+        out.mux(video.encode())
+    source = open_frames(path)
+    assert source.codec == "h264"
+    assert len(list(source.frames())) == 5
+    assert any("2 video streams" in p and "stream 1" in p for p in source.problems)

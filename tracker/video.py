@@ -366,6 +366,13 @@ def upright_turns(rotation_deg: float | None) -> int:
     return round(turns) % 4 if abs(turns - round(turns)) < 1e-6 else 0
 
 
+def _the_video(container: av.container.InputContainer) -> av.VideoStream:
+    """The video stream players show: FFmpeg's choice of the best one, not a cover
+    picture or a preview that comes first in the file (a clip with its cover picture as
+    stream 0 was tracked as one still frame)."""
+    return container.streams.best("video")
+
+
 #: Where a phone's camera writes the rate its frames were taken at, when it stores them
 #: to play at another (Android: slow motion and time-lapse).
 _TAKEN_FPS_TAGS = ("com.android.capture.fps",)
@@ -592,7 +599,7 @@ class FrameSource:
             return Frame(index - 1, t, *pixels)
 
         with av.open(str(self.path), metadata_errors="replace") as container:
-            stream = container.streams.video[0]
+            stream = _the_video(container)
             stream.thread_type = "AUTO"  # frame-threaded decoding; order is kept
             if self.width * self.height < ONE_DECODER_THREAD_PX:
                 stream.codec_context.thread_count = 1
@@ -830,7 +837,7 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
         with av.open(str(p), metadata_errors="replace") as container:
             if not container.streams.video:
                 raise CranktrackError(f"{p} has no video stream")
-            s = container.streams.video[0]
+            s = _the_video(container)
             rate = float(s.average_rate) if s.average_rate else None
             if s.duration and s.time_base:
                 duration = float(s.duration * s.time_base)
@@ -855,6 +862,11 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
                                  pixel_aspect=aspect, fields=interlaced, time_scale=scale)
             if taken is not None:
                 source.problems.append(taken)
+            if len(container.streams.video) > 1:
+                source.problems.append(
+                    f"the file holds {len(container.streams.video)} video streams; the one "
+                    f"tracked is stream {s.index} ({codec.name}, {codec.width}×{codec.height}),"
+                    " the one players show (a cover picture or a preview is not it)")
             if interlaced:
                 source.problems.append(
                     f"the video is interlaced: each of its frames holds two fields taken "
