@@ -546,6 +546,9 @@ class FrameSource:
     #: Seconds of the taking per second of the file's own clock: 1/8 for a phone's slow
     #: motion taken at 240 frames a second and stored to play at 30 (:func:`taking_scale`).
     time_scale: float = 1.0
+    #: Bits a sample of a folder's pictures hold (8, or 10-16 in 16-bit files), from
+    #: the first (:func:`sample_bits`); they are read scaled from that depth to 8 bits.
+    sample_bits: int = 8
     _images: list[Path] = field(default_factory=list, repr=False)
 
     def frames(self, prefetch: int = 0) -> Iterator[Frame]:
@@ -664,20 +667,56 @@ class FrameSource:
     def _image_frames(self) -> Iterator[Frame]:
         fps = self.nominal_fps or 1.0
         for index, p in enumerate(self._images):
-            bgr = cv2.imread(str(p), cv2.IMREAD_COLOR)
-            if bgr is None:
+            rgb = read_picture(p, self.sample_bits)
+            if rgb is None:
                 self.problems.append(f"{p.name} could not be read as an image and was skipped")
                 continue
-            if bgr.shape[1::-1] != (self.width, self.height):
+            if rgb.shape[1::-1] != (self.width, self.height):
                 # A picture of another size is not a frame of this clip: its pixels
                 # would put the markers somewhere else in the plane.
                 self.problems.append(
-                    f"{p.name} is {bgr.shape[1]}×{bgr.shape[0]} px, not {self.width}×"
+                    f"{p.name} is {rgb.shape[1]}×{rgb.shape[0]} px, not {self.width}×"
                     f"{self.height} like the folder's first picture, and was skipped")
                 continue
             # JPEG stores colour at half resolution (almost always): no luminance edges.
-            yield Frame(index, index / fps, cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB),
+            yield Frame(index, index / fps, rgb,
                         full_chroma=p.suffix.lower() not in (".jpg", ".jpeg"))
+
+
+#: How pictures are read: 16-bit samples kept (OpenCV's plain colour reading divides
+#: them by 256), as three channels, turned upright as their EXIF says.
+_PICTURE_FLAGS = cv2.IMREAD_ANYDEPTH | cv2.IMREAD_COLOR
+
+
+def sample_bits(raw: NDArray) -> int:
+    """The bits a sample of a picture read with :data:`_PICTURE_FLAGS` holds:
+    8 for 8-bit files; for 16-bit ones the least of 10, 12, 14 and 16 that holds its
+    brightest sample. Scientific and high-speed cameras write 10- or 12-bit samples in
+    16-bit TIFF and PNG; read as 16 bits (OpenCV's 8-bit reading divides by 256),
+    a 12-bit picture's white is 16 DN of 255, and nothing in it was found.
+
+    >>> import numpy as np
+    >>> sample_bits(np.array([[3800]], np.uint16)), sample_bits(np.array([[9]], np.uint8))
+    (12, 8)
+    """
+    if raw.dtype != np.uint16:
+        return 8
+    top = int(raw.max())
+    return next(b for b in (10, 12, 14, 16) if top < 1 << b)
+
+
+def read_picture(path: Path, bits: int = 8) -> NDArray[np.uint8] | None:
+    """A picture file as 8-bit RGB (h, w, 3), its samples scaled from ``bits`` bits
+    (:func:`sample_bits`) and rounded, a brighter one clipped (grey pictures as three
+    equal channels, turned as their EXIF says). None where OpenCV cannot read it."""
+    raw = cv2.imread(str(path), _PICTURE_FLAGS)
+    if raw is None or raw.dtype not in (np.uint8, np.uint16):
+        return None
+    if raw.dtype == np.uint16:
+        shift = bits - 8
+        raw = np.minimum((raw.astype(np.uint32) + (1 << (shift - 1) if shift else 0)) >> shift,
+                         255).astype(np.uint8)
+    return cv2.cvtColor(raw, cv2.COLOR_BGR2RGB)
 
 
 def _prefetched(frames: Iterator[Frame], depth: int) -> Iterator[Frame]:
@@ -813,12 +852,18 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
             raise CranktrackError(
                 f"{p} is a folder of images, which carry no timestamps; give its frame rate "
                 "with --fps")
-        first = cv2.imread(str(images[0]), cv2.IMREAD_COLOR)
+        first = cv2.imread(str(images[0]), _PICTURE_FLAGS)
         if first is None:
             raise CranktrackError(f"{images[0]} is not an image OpenCV can read")
         h, w = first.shape[:2]
+        bits = sample_bits(first)
         source = FrameSource(p, "images", w, h, float(fps), len(images), "images",
-                             _images=images)
+                             sample_bits=bits, _images=images)
+        if bits > 8:
+            source.problems.append(
+                f"the pictures are 16-bit files holding {bits}-bit samples (the first's "
+                f"brightest is {int(first.max())}); they are read scaled from {bits} bits "
+                "to 8")
         if left_out:
             shown = ", ".join(q.name for q in left_out[:3]) + (", …" if len(left_out) > 3
                                                                else "")
