@@ -435,11 +435,13 @@ def test_deep_and_422_video_put_the_markers_where_they_were_drawn(tmp_path, enco
     assert np.abs(tab["g_y_px"] - 50).max() < bound
 
 
-def _interlaced_disc(path, frames=8, speed_px_s=200.0):
+def _interlaced_disc(path, frames=8, speed_px_s=200.0, first="bottom"):
     """A red disc moving along x at ``speed_px_s``, filmed interlaced at 25 frames a
     second: each frame's two fields taken 20 ms apart, each field's 4:2:0 colour from
-    its own lines (as interlaced video codes them), the bottom field first (as the
-    encoder says of frames that do not say which). Returns the fields' times (s)."""
+    its own lines (as interlaced video codes them). The encoder flags the bottom field
+    first (as it does frames that do not say which); ``first`` is the one taken first
+    ("bottom", "top"), or "both" for both at once (progressive segmented frames).
+    Returns the fields' times (s)."""
     h, w = 96, 128
 
     def field(t, parity):
@@ -457,7 +459,8 @@ def _interlaced_disc(path, frames=8, speed_px_s=200.0):
                            options={"crf": "6", "x264-params": "interlaced=1:tff=1"})
         s.width, s.height, s.pix_fmt = w, h, "yuv420p"
         for k in range(frames):
-            bottom, top = field(k / 25, 1), field(k / 25 + 1 / 50, 0)
+            top_s, bottom_s = {"bottom": (0.02, 0.0), "top": (0.0, 0.02), "both": (0.0, 0.0)}[first]
+            bottom, top = field(k / 25 + bottom_s, 1), field(k / 25 + top_s, 0)
             # Interleaved row by row: in the luma, and in each chroma plane.
             planes = np.empty((h * 3 // 2, w), np.uint8)
             planes[0:h:2], planes[1:h:2] = top[:h // 2], bottom[:h // 2]
@@ -473,15 +476,18 @@ def _interlaced_disc(path, frames=8, speed_px_s=200.0):
     return np.arange(2 * frames) / 50
 
 
-def test_an_interlaced_videos_fields_are_tracked_as_frames_of_their_own(tmp_path):
+@pytest.mark.parametrize("first", ["bottom", "top"])
+def test_an_interlaced_videos_fields_are_tracked_as_frames_of_their_own(tmp_path, first):
     # An interlaced camcorder's frame holds two fields 20 ms apart. Read as stored, a
     # disc moving 4 px a field was found in 12 frames of 12, each 2 px off where it was
     # at the frame's time, with a σ of 0.15 px. Now each field is a frame at its time.
     from cranktrack.tracker.markers import parse_markers
     from cranktrack.tracker.track import track
 
+    # Taken top field first but flagged bottom first, the fields came out in the wrong
+    # order (x ±4 px by field): which came first is read from the pictures (idet).
     path = tmp_path / "interlaced.mp4"
-    times = _interlaced_disc(path)
+    times = _interlaced_disc(path, first=first)
     source = open_frames(path)
     assert source.fields and source.nominal_fps == pytest.approx(50.0)
     assert any("interlaced" in p and "20 ms" in p for p in source.problems)
@@ -585,3 +591,14 @@ def test_twelve_bit_samples_in_sixteen_bit_pictures_are_found(tmp_path):
     assert tab["ball_ok"].all()
     assert np.abs(tab["ball_x_px"] - (40 + 4 * tab["frame"])).max() < 0.05
     assert np.abs(tab["ball_y_px"] - 48).max() < 0.05
+
+
+def test_progressive_frames_flagged_interlaced_are_tracked_whole(tmp_path):
+    # Some cameras flag progressive segmented frames interlaced: both fields one
+    # instant. Split into fields, they moved in stairs at half the lines.
+    path = tmp_path / "psf.mp4"
+    _interlaced_disc(path, first="both")
+    source = open_frames(path)
+    assert not source.fields and source.nominal_fps == pytest.approx(25.0)
+    assert any("one instant" in p for p in source.problems)
+    assert len(list(source.frames())) == 8

@@ -429,6 +429,63 @@ def taking_scale(plays_fps: float | None, given_fps: float | None, said_fps: flo
         f"{plays_fps / taken:.4g} to those of the taking, {why}")
 
 
+#: Frames :func:`field_order` looks at: two seconds at 30 frames a second.
+FIELD_ORDER_FRAMES = 60
+
+
+def field_order(path: Path, most: int = FIELD_ORDER_FRAMES) -> str | None:
+    """What the first ``most`` frames of a video flagged interlaced show, by FFmpeg's
+    ``idet`` (it compares each frame's lines with its fields taken either way): "tff"
+    or "bff" (the top or bottom field taken first), "progressive" (both fields one
+    instant: progressive segmented frames, which some cameras write flagged
+    interlaced), or None where nothing moved enough to tell."""
+    votes = {"tff": 0, "bff": 0, "progressive": 0}
+    with av.open(str(path), metadata_errors="replace") as container:
+        stream = _the_video(container)
+        graph = av.filter.Graph()
+        source = graph.add_buffer(template=stream)
+        detect = graph.add("idet")
+        sink = graph.add("buffersink")
+        source.link_to(detect)
+        detect.link_to(sink)
+        graph.configure()
+        try:
+            for k, frame in enumerate(container.decode(stream)):
+                if k == most:
+                    break
+                graph.push(frame)
+                while True:
+                    try:
+                        said = graph.pull().metadata.get("lavfi.idet.multiple.current_frame")
+                    except (av.BlockingIOError, av.EOFError):
+                        break
+                    if said in votes:
+                        votes[said] += 1
+        except av.FFmpegError:
+            pass  # a damaged file: what was seen up to there
+    best = max(votes, key=votes.get)
+    return best if votes[best] > 0 else None
+
+
+def _interlacing(path: Path, flagged: bool) -> tuple[str, str | None]:
+    """For a video whose first picture is ``flagged`` interlaced: which field to take
+    first ("tff", "bff", "auto": as the file says) or "progressive", from what its
+    pictures show (:func:`field_order`), and what to tell the user where that is not
+    what the file says."""
+    if not flagged:
+        return "auto", None
+    shown = field_order(path)
+    if shown == "progressive":
+        return shown, ("the file says its frames are interlaced, but in its first frames "
+                       "both fields show one instant (progressive segmented frames): they "
+                       "are tracked whole")
+    if shown is None:
+        return "auto", ("the file says its frames are interlaced; too little moves in its "
+                        f"first {FIELD_ORDER_FRAMES} frames to check which field was taken "
+                        "first, so the file's word is taken")
+    return shown, None
+
+
 def _first_picture(container: av.container.InputContainer, stream: av.VideoStream
                    ) -> tuple[float | None, bool]:
     """The display rotation (degrees counter-clockwise, None where none is stored) of
@@ -450,12 +507,12 @@ class _Fields:
     stored, a frame holds two fields taken half a frame apart: a disc moving 4 px a
     field was found 2 px off where it was at the frame's time, with a σ of 0.15 px."""
 
-    def __init__(self, stream: av.VideoStream) -> None:
+    def __init__(self, stream: av.VideoStream, first: str = "auto") -> None:
         self._graph = av.filter.Graph()
         source = self._graph.add_buffer(template=stream)
         # send_field: one frame per field; deint=interlaced: frames flagged progressive
-        # (a clip that mixes them) pass as they are.
-        bwdif = self._graph.add("bwdif", "mode=send_field:parity=auto:deint=interlaced")
+        # (a clip that mixes them) pass as they are; parity: which field came first.
+        bwdif = self._graph.add("bwdif", f"mode=send_field:parity={first}:deint=interlaced")
         sink = self._graph.add("buffersink")
         source.link_to(bwdif)
         bwdif.link_to(sink)
@@ -543,6 +600,9 @@ class FrameSource:
     #: apart, and each field is read as a frame of its own (:class:`_Fields`), at
     #: twice the stored rate (``nominal_fps`` and ``expected_frames`` are the fields').
     fields: bool = False
+    #: Which field of an interlaced frame was taken first, as its pictures show it
+    #: (:func:`field_order`): "tff" (top), "bff" (bottom), or "auto" (as the file says).
+    first_field: str = "auto"
     #: Seconds of the taking per second of the file's own clock: 1/8 for a phone's slow
     #: motion taken at 240 frames a second and stored to play at 30 (:func:`taking_scale`).
     time_scale: float = 1.0
@@ -606,7 +666,7 @@ class FrameSource:
             stream.thread_type = "AUTO"  # frame-threaded decoding; order is kept
             if self.width * self.height < ONE_DECODER_THREAD_PX:
                 stream.codec_context.thread_count = 1
-            fields = _Fields(stream) if self.fields else None
+            fields = _Fields(stream, self.first_field) if self.fields else None
             packets = container.demux(stream)
             while True:
                 try:
@@ -900,11 +960,16 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
             sar = s.sample_aspect_ratio or codec.sample_aspect_ratio
             aspect = float(sar) if sar and sar > 0 else 1.0
             aspect = 1.0 / aspect if turns % 2 else aspect
+            first_field, order_note = _interlacing(p, interlaced)
+            interlaced = interlaced and first_field != "progressive"
             per_frame = 2 if interlaced else 1  # an interlaced frame's fields are frames
             source = FrameSource(p, "video", w, h, rate and per_frame * rate / scale,
                                  (s.frames or 0) * per_frame or None, codec.name,
                                  duration_s=duration and duration * scale, quarter_turns=turns,
-                                 pixel_aspect=aspect, fields=interlaced, time_scale=scale)
+                                 pixel_aspect=aspect, fields=interlaced, time_scale=scale,
+                                 first_field=first_field if interlaced else "auto")
+            if order_note:
+                source.problems.append(order_note)
             if taken is not None:
                 source.problems.append(taken)
             if len(container.streams.video) > 1:
