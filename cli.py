@@ -371,8 +371,9 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     from .report.survey import write_survey_png
     from .tracker.lighting import settling_note
     from .tracker.marker_state import rig_focus_note
+    from .tracker.pictures import sequence_of
     from .tracker.survey import crank_slider, frame_and_later, rig_edges, survey
-    from .tracker.video import open_frames, sequence_of
+    from .tracker.video import open_frames
 
     video = Path(args.video)
     # A second frame a little later tells what moves: what people film markers for.

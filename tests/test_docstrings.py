@@ -14,6 +14,9 @@ MODULES = [
     "cranktrack.tracker.track",
     "cranktrack.tracker.scatter",
     "cranktrack.tracker.lighting",
+    "cranktrack.tracker.video",
+    "cranktrack.tracker.pictures",
+    "cranktrack.tracker.planes",
     "cranktrack.api",
 ]
 

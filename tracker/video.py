@@ -13,7 +13,6 @@ from __future__ import annotations
 import heapq
 import os
 import queue
-import re
 import threading
 from collections import deque
 from collections.abc import Iterator
@@ -28,8 +27,16 @@ from numba import njit
 from numpy.typing import NDArray
 
 from ..errors import CranktrackError
-
-IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
+from .fields import Fields, interlacing
+from .pictures import (
+    IMAGE_SUFFIXES,
+    PICTURE_FLAGS,
+    numbered_pictures,
+    read_picture,
+    sample_bits,
+    sequence_of,
+)
+from .planes import frame_pixels, upright_turns
 
 #: A pixel aspect within this of 1 is taken as square: encoders round their ratios
 #: (0.5 % is 0.3° of a crank angle at 45°, at most).
@@ -47,12 +54,6 @@ REORDER_DEPTH = 8
 #: Larger frames keep FFmpeg's threads: a 1280×720 render took 0.35 s with them, 0.40 s
 #: without (bench/README.md, stop 50).
 ONE_DECODER_THREAD_PX = 500_000
-
-
-#: FFmpeg colour-space codes and the YUV → RGB matrix (its ITU-R BT number) each names:
-#: unspecified (which FFmpeg also converts as BT.601), BT.470BG and SMPTE 170M are
-#: BT.601; 1 is BT.709 (HD video: phones, most cameras); 9 is BT.2020 (a phone's HDR).
-_MATRICES = {2: 601, 5: 601, 6: 601, 1: 709, 9: 2020}
 
 
 #: About how many pixels :meth:`Frame.light` takes the median of.
@@ -256,116 +257,6 @@ def _channel_medians(rgb: NDArray) -> NDArray:
     return out
 
 
-def _frame_pixels(frame: av.VideoFrame, turns: int = 0
-                  ) -> tuple[NDArray[np.uint8], str, bool, bool, int]:
-    """The decoder's planes when they can be converted region by region, else RGB,
-    turned ``turns`` quarter turns counter-clockwise (upright, :func:`upright_turns`);
-    whether the chroma is stored at full resolution (:attr:`Frame.full_chroma`);
-    whether 4:2:0 planes are in full range (:attr:`Frame.full_range`), and their
-    matrix (:attr:`Frame.matrix`)."""
-    full = all(c.width == frame.width and c.height == frame.height
-               for c in frame.format.components)
-    frame = _cells_of_four(_eight_bit(frame))
-    # Planes laid one under another as Frame keeps them need a height that is a
-    # multiple of 4 and an even width, upright and as stored (854×480 is kept; frames
-    # of other sizes are converted whole).
-    across = 4 if turns % 2 else 2
-    if (frame.format.name in ("yuv420p", "yuvj420p") and frame.width % across == 0
-            and frame.height % 4 == 0 and frame.colorspace in _MATRICES):
-        # FFmpeg's range codes: 0 unspecified, 1 limited (MPEG), 2 full (JPEG);
-        # "yuvj420p" is the older way of saying full.
-        wide = frame.format.name == "yuvj420p" or frame.color_range == 2
-        return (_turned_i420(frame.to_ndarray(), turns), "i420", full, wide,
-                _MATRICES[frame.colorspace])
-    rgb = frame.to_ndarray(format="rgb24")
-    return ((np.ascontiguousarray(np.rot90(rgb, turns)) if turns else rgb), "rgb", full, False,
-            601)
-
-
-#: Planar YUV of more than 8 bits a sample, little-endian as decoders give it: the
-#: 8-bit format of the same chroma layout, and the bits.
-_DEEP_YUV = re.compile(r"(yuv4[24][024]p)(9|10|12|14|16)le")
-
-
-def _eight_bit(frame: av.VideoFrame) -> av.VideoFrame:
-    """A planar YUV frame of more than 8 bits a sample (10-bit HEVC, as phones film
-    HDR; 10-bit 4:2:2 from video cameras) as the same planes at 8 bits, each code
-    rounded to its nearest 8-bit one; any other frame as it is.
-
-    FFmpeg's own conversion to RGB of such a frame places its chroma about half a
-    pixel to the left of where its conversion of the same planes at 8 bits does:
-    discs drawn at whole pixels came out 0.45 px off in x at 4:2:0 and 0.41 px at
-    4:2:2; read at 8 bits, 0.01 and 0.035 px, as 8-bit video of those layouts."""
-    deep = _DEEP_YUV.fullmatch(frame.format.name)
-    if deep is None:
-        return frame
-    shift = int(deep.group(2)) - 8
-    out = av.VideoFrame(frame.width, frame.height, deep.group(1))
-    for src, dst in zip(frame.planes, out.planes, strict=True):
-        codes = np.frombuffer(src, np.uint16).reshape(-1, src.line_size // 2)
-        into = np.frombuffer(dst, np.uint8).reshape(-1, dst.line_size)
-        h, w = dst.height, dst.width
-        into[:h, :w] = np.minimum((codes[:h, :w].astype(np.uint32) + (1 << (shift - 1)))
-                                  >> shift, 255)
-    out.colorspace, out.color_range = frame.colorspace, frame.color_range
-    return out
-
-
-def _cells_of_four(frame: av.VideoFrame) -> av.VideoFrame:
-    """An 8-bit 4:2:2 frame (an MJPEG webcam's, a video camera's) as 4:2:0: each chroma
-    sample the mean of the two above each other, so that it covers its 2×2 cell as
-    4:2:0 video's does (and as JPEG places it); any other frame as it is.
-
-    FFmpeg's own RGB conversion of 4:2:2 interpolates the chroma about a quarter of a
-    pixel to the left: a disc drawn at whole pixels was found 0.07-0.09 px off in x,
-    to one side on even columns and to the other on odd ones, against 0.01-0.02 px at
-    4:2:0. The tracker's colour model has 2×2 cells anyway (:func:`.disc.fit_disc_cells`)."""
-    if frame.format.name not in ("yuv422p", "yuvj422p") or frame.height % 2:
-        return frame
-    out = av.VideoFrame(frame.width, frame.height, frame.format.name.replace("422", "420"))
-    for k, (src, dst) in enumerate(zip(frame.planes, out.planes, strict=True)):
-        rows = np.frombuffer(src, np.uint8).reshape(-1, src.line_size)[:src.height, :src.width]
-        into = np.frombuffer(dst, np.uint8).reshape(-1, dst.line_size)
-        if k == 0:
-            into[:dst.height, :dst.width] = rows
-        else:  # rounded half-sum of each pair of rows
-            pair = rows[0::2].astype(np.uint16) + rows[1::2]
-            into[:dst.height, :dst.width] = (pair + 1) >> 1
-    out.colorspace, out.color_range = frame.colorspace, frame.color_range
-    return out
-
-
-def _turned_i420(pixels: NDArray[np.uint8], turns: int) -> NDArray[np.uint8]:
-    """4:2:0 planes laid out as :class:`Frame` holds them (Y, then U and V), each
-    turned ``turns`` quarter turns counter-clockwise. A 2×2 cell's chroma sample
-    stays with its cell: the planes turn alike."""
-    if not turns % 4:
-        return pixels
-    w = pixels.shape[1]
-    h = pixels.shape[0] * 2 // 3
-    q = h // 4
-    planes = (pixels[:h], pixels[h:h + q].reshape(h // 2, w // 2),
-              pixels[h + q:].reshape(h // 2, w // 2))
-    turned = [np.rot90(plane, turns) for plane in planes]
-    return np.concatenate([t.ravel() for t in turned]).reshape(-1, turned[0].shape[1])
-
-
-def upright_turns(rotation_deg: float | None) -> int:
-    """Quarter turns counter-clockwise (0-3) that show a picture upright, from the
-    display rotation its video file stores (PyAV's ``VideoFrame.rotation``, degrees
-    counter-clockwise): what players and OpenCV's reader apply. A phone filming in
-    portrait stores its pictures on their side with such a rotation. An angle that is
-    not a quarter turn (none seen from a camera) is left as stored.
-
-    >>> upright_turns(90), upright_turns(-90), upright_turns(-180), upright_turns(None)
-    (1, 3, 2, 0)
-    """
-    if rotation_deg is None or not np.isfinite(rotation_deg):
-        return 0
-    turns = float(rotation_deg) / 90.0
-    return round(turns) % 4 if abs(turns - round(turns)) < 1e-6 else 0
-
-
 def _the_video(container: av.container.InputContainer) -> av.VideoStream:
     """The video stream players show: FFmpeg's choice of the best one, not a cover
     picture or a preview that comes first in the file (a clip with its cover picture as
@@ -429,63 +320,6 @@ def taking_scale(plays_fps: float | None, given_fps: float | None, said_fps: flo
         f"{plays_fps / taken:.4g} to those of the taking, {why}")
 
 
-#: Frames :func:`field_order` looks at: two seconds at 30 frames a second.
-FIELD_ORDER_FRAMES = 60
-
-
-def field_order(path: Path, most: int = FIELD_ORDER_FRAMES) -> str | None:
-    """What the first ``most`` frames of a video flagged interlaced show, by FFmpeg's
-    ``idet`` (it compares each frame's lines with its fields taken either way): "tff"
-    or "bff" (the top or bottom field taken first), "progressive" (both fields one
-    instant: progressive segmented frames, which some cameras write flagged
-    interlaced), or None where nothing moved enough to tell."""
-    votes = {"tff": 0, "bff": 0, "progressive": 0}
-    with av.open(str(path), metadata_errors="replace") as container:
-        stream = _the_video(container)
-        graph = av.filter.Graph()
-        source = graph.add_buffer(template=stream)
-        detect = graph.add("idet")
-        sink = graph.add("buffersink")
-        source.link_to(detect)
-        detect.link_to(sink)
-        graph.configure()
-        try:
-            for k, frame in enumerate(container.decode(stream)):
-                if k == most:
-                    break
-                graph.push(frame)
-                while True:
-                    try:
-                        said = graph.pull().metadata.get("lavfi.idet.multiple.current_frame")
-                    except (av.BlockingIOError, av.EOFError):
-                        break
-                    if said in votes:
-                        votes[said] += 1
-        except av.FFmpegError:
-            pass  # a damaged file: what was seen up to there
-    best = max(votes, key=votes.get)
-    return best if votes[best] > 0 else None
-
-
-def _interlacing(path: Path, flagged: bool) -> tuple[str, str | None]:
-    """For a video whose first picture is ``flagged`` interlaced: which field to take
-    first ("tff", "bff", "auto": as the file says) or "progressive", from what its
-    pictures show (:func:`field_order`), and what to tell the user where that is not
-    what the file says."""
-    if not flagged:
-        return "auto", None
-    shown = field_order(path)
-    if shown == "progressive":
-        return shown, ("the file says its frames are interlaced, but in its first frames "
-                       "both fields show one instant (progressive segmented frames): they "
-                       "are tracked whole")
-    if shown is None:
-        return "auto", ("the file says its frames are interlaced; too little moves in its "
-                        f"first {FIELD_ORDER_FRAMES} frames to check which field was taken "
-                        "first, so the file's word is taken")
-    return shown, None
-
-
 def _first_picture(container: av.container.InputContainer, stream: av.VideoStream
                    ) -> tuple[float | None, bool]:
     """The display rotation (degrees counter-clockwise, None where none is stored) of
@@ -498,77 +332,6 @@ def _first_picture(container: av.container.InputContainer, stream: av.VideoStrea
     except av.FFmpegError:
         pass
     return None, False
-
-
-class _Fields:
-    """An interlaced video's fields as frames of their own, at twice its frame rate:
-    FFmpeg's ``bwdif`` deinterlacer (motion-adaptive; each field's missing lines taken
-    from its neighbours in space and time), as players show such video. Read as
-    stored, a frame holds two fields taken half a frame apart: a disc moving 4 px a
-    field was found 2 px off where it was at the frame's time, with a σ of 0.15 px."""
-
-    def __init__(self, stream: av.VideoStream, first: str = "auto") -> None:
-        self._graph = av.filter.Graph()
-        source = self._graph.add_buffer(template=stream)
-        # send_field: one frame per field; deint=interlaced: frames flagged progressive
-        # (a clip that mixes them) pass as they are; parity: which field came first.
-        bwdif = self._graph.add("bwdif", f"mode=send_field:parity={first}:deint=interlaced")
-        sink = self._graph.add("buffersink")
-        source.link_to(bwdif)
-        bwdif.link_to(sink)
-        self._graph.configure()
-        # The luma of the last stored frames: a field is told by the lines kept from one.
-        self._stored: deque[NDArray] = deque(maxlen=3)
-
-    def split(self, frames: list) -> list[av.VideoFrame]:
-        """The fields that ``frames`` (decoded pictures; ``[None]`` at the end) complete."""
-        out = []
-        for frame in frames:
-            if frame is not None:
-                self._stored.append(_plane(frame, 0).copy())
-            self._graph.push(frame)
-            while True:
-                try:
-                    out.append(self._sited(self._graph.pull()))
-                except (av.BlockingIOError, av.EOFError):
-                    break
-        return out
-
-    def _sited(self, field: av.VideoFrame) -> av.VideoFrame:
-        """A 4:2:0 field with its colour moved to where a frame's 2×2 cells hold it.
-
-        Interlaced 4:2:0 codes each field's colour from the field's own lines, so a
-        chroma line of the top field lies half a frame line below the two lines whose
-        cell it fills as a frame, and one of the bottom field half a line above: a disc
-        came out 0.45 px off in y, up in top fields and down in bottom ones. The field
-        is told by the lines ``bwdif`` kept as they were; the colour is moved by a
-        quarter of a chroma line (linear interpolation). A field whose kept lines match
-        both (a still picture) is left as it is: there the two fields' errors cancel."""
-        if not field.format.name.startswith(("yuv420p", "yuvj420p")):
-            return field
-        luma = _plane(field, 0)
-        kept = {parity for stored in self._stored for parity in (0, 1)
-                if np.array_equal(luma[parity::2], stored[parity::2])}
-        if len(kept) != 1:
-            return field
-        step = -1 if kept.pop() == 0 else 1  # the neighbour a quarter line takes from
-        field.make_writable()
-        for k in (1, 2):
-            chroma = _plane(field, k)
-            c = chroma.astype(np.float32)
-            neighbour = np.roll(c, -step, axis=0)
-            neighbour[0 if step < 0 else -1] = c[0 if step < 0 else -1]  # the edge line
-            chroma[...] = np.rint(0.75 * c + 0.25 * neighbour).astype(chroma.dtype)
-        return field
-
-
-def _plane(frame: av.VideoFrame, k: int) -> NDArray:
-    """Plane ``k`` of a planar YUV frame as a writable array of its samples (uint8, or
-    uint16 for more than 8 bits), without the row padding."""
-    plane = frame.planes[k]
-    dtype = np.uint16 if frame.format.components[k].bits > 8 else np.uint8
-    rows = np.frombuffer(plane, dtype).reshape(-1, plane.line_size // np.dtype(dtype).itemsize)
-    return rows[:plane.height, :plane.width]
 
 
 @dataclass
@@ -589,7 +352,7 @@ class FrameSource:
     problems: list[str] = field(default_factory=list)
     duration_s: float | None = None  # the container's, to tell a truncated file
     #: Quarter turns counter-clockwise that bring the stored pictures upright (a phone's
-    #: portrait video is stored on its side with a display rotation, :func:`upright_turns`);
+    #: portrait video is stored on its side with a display rotation, :func:`.planes.upright_turns`);
     #: ``width`` and ``height`` are the upright frame's.
     quarter_turns: int = 0
     #: How many times as wide as high a pixel is shown (the sample aspect ratio of the
@@ -597,17 +360,17 @@ class FrameSource:
     #: stay in stored pixels; lengths take this into account (:mod:`.calibration`).
     pixel_aspect: float = 1.0
     #: The video is interlaced: each stored frame holds two fields taken half a frame
-    #: apart, and each field is read as a frame of its own (:class:`_Fields`), at
+    #: apart, and each field is read as a frame of its own (:class:`.fields.Fields`), at
     #: twice the stored rate (``nominal_fps`` and ``expected_frames`` are the fields').
     fields: bool = False
     #: Which field of an interlaced frame was taken first, as its pictures show it
-    #: (:func:`field_order`): "tff" (top), "bff" (bottom), or "auto" (as the file says).
+    #: (:func:`.fields.field_order`): "tff" (top), "bff" (bottom), or "auto" (as the file says).
     first_field: str = "auto"
     #: Seconds of the taking per second of the file's own clock: 1/8 for a phone's slow
     #: motion taken at 240 frames a second and stored to play at 30 (:func:`taking_scale`).
     time_scale: float = 1.0
     #: Bits a sample of a folder's pictures hold (8, or 10-16 in 16-bit files), from
-    #: the first (:func:`sample_bits`); they are read scaled from that depth to 8 bits.
+    #: the first (:func:`.pictures.sample_bits`); they are read scaled from that depth to 8 bits.
     sample_bits: int = 8
     _images: list[Path] = field(default_factory=list, repr=False)
 
@@ -647,7 +410,7 @@ class FrameSource:
             else:
                 n = index + len(pending)
                 t_s = n / self.nominal_fps if self.nominal_fps else float(n)
-            pending.append((t_s, _frame_pixels(frame, self.quarter_turns)))
+            pending.append((t_s, frame_pixels(frame, self.quarter_turns)))
             heapq.heappush(times, t_s)
             return t is None
 
@@ -666,7 +429,7 @@ class FrameSource:
             stream.thread_type = "AUTO"  # frame-threaded decoding; order is kept
             if self.width * self.height < ONE_DECODER_THREAD_PX:
                 stream.codec_context.thread_count = 1
-            fields = _Fields(stream, self.first_field) if self.fields else None
+            fields = Fields(stream, self.first_field) if self.fields else None
             packets = container.demux(stream)
             while True:
                 try:
@@ -743,42 +506,6 @@ class FrameSource:
                         full_chroma=p.suffix.lower() not in (".jpg", ".jpeg"))
 
 
-#: How pictures are read: 16-bit samples kept (OpenCV's plain colour reading divides
-#: them by 256), as three channels, turned upright as their EXIF says.
-_PICTURE_FLAGS = cv2.IMREAD_ANYDEPTH | cv2.IMREAD_COLOR
-
-
-def sample_bits(raw: NDArray) -> int:
-    """The bits a sample of a picture read with :data:`_PICTURE_FLAGS` holds:
-    8 for 8-bit files; for 16-bit ones the least of 10, 12, 14 and 16 that holds its
-    brightest sample. Scientific and high-speed cameras write 10- or 12-bit samples in
-    16-bit TIFF and PNG; read as 16 bits (OpenCV's 8-bit reading divides by 256),
-    a 12-bit picture's white is 16 DN of 255, and nothing in it was found.
-
-    >>> import numpy as np
-    >>> sample_bits(np.array([[3800]], np.uint16)), sample_bits(np.array([[9]], np.uint8))
-    (12, 8)
-    """
-    if raw.dtype != np.uint16:
-        return 8
-    top = int(raw.max())
-    return next(b for b in (10, 12, 14, 16) if top < 1 << b)
-
-
-def read_picture(path: Path, bits: int = 8) -> NDArray[np.uint8] | None:
-    """A picture file as 8-bit RGB (h, w, 3), its samples scaled from ``bits`` bits
-    (:func:`sample_bits`) and rounded, a brighter one clipped (grey pictures as three
-    equal channels, turned as their EXIF says). None where OpenCV cannot read it."""
-    raw = cv2.imread(str(path), _PICTURE_FLAGS)
-    if raw is None or raw.dtype not in (np.uint8, np.uint16):
-        return None
-    if raw.dtype == np.uint16:
-        shift = bits - 8
-        raw = np.minimum((raw.astype(np.uint32) + (1 << (shift - 1) if shift else 0)) >> shift,
-                         255).astype(np.uint8)
-    return cv2.cvtColor(raw, cv2.COLOR_BGR2RGB)
-
-
 def _prefetched(frames: Iterator[Frame], depth: int) -> Iterator[Frame]:
     """Run ``frames`` in a daemon thread, handing over through a bounded queue."""
     q: queue.Queue = queue.Queue(maxsize=depth)
@@ -818,63 +545,6 @@ def _prefetched(frames: Iterator[Frame], depth: int) -> Iterator[Frame]:
         thread.join(timeout=5)
 
 
-def _natural_key(p: Path) -> list:
-    return [int(s) if s.isdigit() else s.lower() for s in re.split(r"(\d+)", p.name)]
-
-
-def _numbering(p: Path) -> str:
-    """A picture's name in lower case with each run of digits as ``#``: the pictures of
-    one numbered sequence share it (``frame#.png``)."""
-    return re.sub(r"\d+", "#", p.name.lower())
-
-
-def numbered_pictures(folder: Path) -> tuple[list[Path], list[Path]]:
-    """The frames of a folder of pictures, in natural order, and the other pictures in it.
-
-    The frames are the pictures numbered alike (:func:`_numbering`); a picture named
-    otherwise (a thumbnail, ``inspect``'s PNG of one of the frames) is left out: taken
-    as a frame, it would put a wrong picture, or one of another size, in the clip.
-    Where no two pictures are numbered alike, all are frames, in name order. Two
-    numbered sequences in one folder (two cameras' pictures) are refused, since
-    interleaved by name they would make no clip.
-
-    Raises
-    ------
-    CranktrackError
-        The folder holds more than one numbered sequence.
-    """
-    pictures = sorted((q for q in folder.iterdir() if q.suffix.lower() in IMAGE_SUFFIXES),
-                      key=_natural_key)
-    groups: dict[str, list[Path]] = {}
-    for q in pictures:
-        groups.setdefault(_numbering(q), []).append(q)
-    sequences = [g for key, g in groups.items() if "#" in key and len(g) >= 2]
-    if not sequences:
-        return pictures, []
-    if len(sequences) > 1:
-        listed = ", ".join(f"{g[0].name} … ({len(g)} pictures)" for g in sequences[:3])
-        raise CranktrackError(
-            f"{folder} holds {len(sequences)} numbered sequences of pictures ({listed}); "
-            "put each in a folder of its own")
-    frames = sequences[0]
-    taken = set(frames)
-    return frames, [q for q in pictures if q not in taken]
-
-
-def sequence_of(picture: Path) -> int | None:
-    """How many pictures in ``picture``'s folder are numbered like it
-    (:func:`_numbering`), itself included, where it is one of such a sequence (two or
-    more); None for a video file or a picture on its own."""
-    if picture.suffix.lower() not in IMAGE_SUFFIXES or not picture.is_file():
-        return None
-    key = _numbering(picture)
-    if "#" not in key:
-        return None
-    n = sum(1 for q in picture.parent.iterdir()
-            if q.suffix.lower() in IMAGE_SUFFIXES and _numbering(q) == key)
-    return n if n >= 2 else None
-
-
 def open_frames(path: str | os.PathLike, fps: float | None = None,
                 one_picture: bool = False) -> FrameSource:
     """Open a video file or a folder of numbered images.
@@ -883,14 +553,14 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
     ----------
     path : path-like
         A video file FFmpeg can read, or a folder of images
-        (:func:`numbered_pictures` says which of them are its frames).
+        (:func:`.pictures.numbered_pictures` says which of them are its frames).
     fps : float, optional
         The rate the frames were taken at (frames per second): an image folder's (which
         carries no timestamps), or a video's where it plays them at another rate (slow
         motion, time-lapse): its own timestamps are then scaled to it
         (:func:`taking_scale`).
     one_picture : bool
-        Open a single picture that is one of a numbered sequence (:func:`sequence_of`)
+        Open a single picture that is one of a numbered sequence (:func:`.pictures.sequence_of`)
         as a clip of one frame, as ``inspect`` does. Without it that is refused:
         tracked alone, one frame of a clip gives no motion.
 
@@ -912,7 +582,7 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
             raise CranktrackError(
                 f"{p} is a folder of images, which carry no timestamps; give its frame rate "
                 "with --fps")
-        first = cv2.imread(str(images[0]), _PICTURE_FLAGS)
+        first = cv2.imread(str(images[0]), PICTURE_FLAGS)
         if first is None:
             raise CranktrackError(f"{images[0]} is not an image OpenCV can read")
         h, w = first.shape[:2]
@@ -960,7 +630,7 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
             sar = s.sample_aspect_ratio or codec.sample_aspect_ratio
             aspect = float(sar) if sar and sar > 0 else 1.0
             aspect = 1.0 / aspect if turns % 2 else aspect
-            first_field, order_note = _interlacing(p, interlaced)
+            first_field, order_note = interlacing(p, interlaced)
             interlaced = interlaced and first_field != "progressive"
             per_frame = 2 if interlaced else 1  # an interlaced frame's fields are frames
             source = FrameSource(p, "video", w, h, rate and per_frame * rate / scale,
