@@ -26,9 +26,9 @@ def frame_pixels(frame: av.VideoFrame, turns: int = 0
                   ) -> tuple[NDArray[np.uint8], str, bool, bool, int]:
     """The decoder's planes when they can be converted region by region, else RGB,
     turned ``turns`` quarter turns counter-clockwise (upright, :func:`upright_turns`);
-    whether the chroma is stored at full resolution (:attr:`Frame.full_chroma`);
-    whether 4:2:0 planes are in full range (:attr:`Frame.full_range`), and their
-    matrix (:attr:`Frame.matrix`)."""
+    whether the chroma is stored at full resolution (:attr:`.video.Frame.full_chroma`);
+    whether 4:2:0 planes are in full range (:attr:`.video.Frame.full_range`), and their
+    matrix (:attr:`.video.Frame.matrix`)."""
     full = all(c.width == frame.width and c.height == frame.height
                for c in frame.format.components)
     frame = _cells_of_four(_eight_bit(frame))
@@ -67,12 +67,9 @@ def _eight_bit(frame: av.VideoFrame) -> av.VideoFrame:
         return frame
     shift = int(deep.group(2)) - 8
     out = av.VideoFrame(frame.width, frame.height, deep.group(1))
-    for src, dst in zip(frame.planes, out.planes, strict=True):
-        codes = np.frombuffer(src, np.uint16).reshape(-1, src.line_size // 2)
-        into = np.frombuffer(dst, np.uint8).reshape(-1, dst.line_size)
-        h, w = dst.height, dst.width
-        into[:h, :w] = np.minimum((codes[:h, :w].astype(np.uint32) + (1 << (shift - 1)))
-                                  >> shift, 255)
+    for k in range(len(out.planes)):
+        codes = plane_samples(frame, k).astype(np.uint32)
+        plane_samples(out, k)[...] = np.minimum((codes + (1 << (shift - 1))) >> shift, 255)
     out.colorspace, out.color_range = frame.colorspace, frame.color_range
     return out
 
@@ -89,20 +86,16 @@ def _cells_of_four(frame: av.VideoFrame) -> av.VideoFrame:
     if frame.format.name not in ("yuv422p", "yuvj422p") or frame.height % 2:
         return frame
     out = av.VideoFrame(frame.width, frame.height, frame.format.name.replace("422", "420"))
-    for k, (src, dst) in enumerate(zip(frame.planes, out.planes, strict=True)):
-        rows = np.frombuffer(src, np.uint8).reshape(-1, src.line_size)[:src.height, :src.width]
-        into = np.frombuffer(dst, np.uint8).reshape(-1, dst.line_size)
-        if k == 0:
-            into[:dst.height, :dst.width] = rows
-        else:  # rounded half-sum of each pair of rows
-            pair = rows[0::2].astype(np.uint16) + rows[1::2]
-            into[:dst.height, :dst.width] = (pair + 1) >> 1
+    plane_samples(out, 0)[...] = plane_samples(frame, 0)
+    for k in (1, 2):  # each pair of chroma rows, their rounded half-sum
+        rows = plane_samples(frame, k).astype(np.uint16)
+        plane_samples(out, k)[...] = (rows[0::2] + rows[1::2] + 1) >> 1
     out.colorspace, out.color_range = frame.colorspace, frame.color_range
     return out
 
 
 def _turned_i420(pixels: NDArray[np.uint8], turns: int) -> NDArray[np.uint8]:
-    """4:2:0 planes laid out as :class:`Frame` holds them (Y, then U and V), each
+    """4:2:0 planes laid out as :class:`.video.Frame` holds them (Y, then U and V), each
     turned ``turns`` quarter turns counter-clockwise. A 2×2 cell's chroma sample
     stays with its cell: the planes turn alike."""
     if not turns % 4:
