@@ -291,8 +291,9 @@ def taking_scale(plays_fps: float | None, given_fps: float | None, said_fps: flo
     user says they were taken at (``--fps``), ``said_fps`` the rate the file says
     (:data:`_TAKEN_FPS_TAGS`). A phone's slow motion, taken at 240 frames a second and
     stored to play at 30, moves 8 times too slowly on the file's clock, and every speed
-    measured on it is 8 times too small. Rates within 0.5 % of each other are the same
-    (29.97 and 30: NTSC's rate and its name).
+    measured on it is 8 times too small. Rates within 5 % of each other are the same: a
+    phone's variable-rate clip of 30 frames a second averages 29.6 or so, and slow
+    motion and time-lapse differ by 2 times and more.
 
     >>> taking_scale(30.0, None, 240.0)[0], taking_scale(30.0, 120.0, 240.0)[0]
     (0.125, 0.25)
@@ -305,9 +306,11 @@ def taking_scale(plays_fps: float | None, given_fps: float | None, said_fps: flo
         A rate is given for a video that has none of its own.
     """
     taken = given_fps or said_fps
-    if taken is None or (plays_fps and abs(taken / plays_fps - 1.0) <= 0.005):
+    if taken is None or (plays_fps and abs(taken / plays_fps - 1.0) <= 0.05):
         return 1.0, None
     if not plays_fps:
+        if given_fps is None:
+            return 1.0, None  # nothing to scale from: the file's own times
         raise CranktrackError(f"--fps {taken:g} cannot be applied: the video gives no frame "
                               "rate of its own to scale its times from")
     if given_fps:
