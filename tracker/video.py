@@ -292,8 +292,8 @@ def taking_scale(plays_fps: float | None, given_fps: float | None, said_fps: flo
     (:data:`_TAKEN_FPS_TAGS`). A phone's slow motion, taken at 240 frames a second and
     stored to play at 30, moves 8 times too slowly on the file's clock, and every speed
     measured on it is 8 times too small. Rates within 5 % of each other are the same: a
-    phone's variable-rate clip of 30 frames a second averages 29.6 or so, and slow
-    motion and time-lapse differ by 2 times and more.
+    phone's variable-rate clip of 30 frames a second may average a little under 30, and
+    slow motion and time-lapse differ by 2 times and more.
 
     >>> taking_scale(30.0, None, 240.0)[0], taking_scale(30.0, 120.0, 240.0)[0]
     (0.125, 0.25)
