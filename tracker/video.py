@@ -38,8 +38,8 @@ from .pictures import (
 )
 from .planes import frame_pixels, upright_turns
 
-#: A pixel aspect within this of 1 is taken as square: encoders round their ratios
-#: (0.5 % is 0.3° of a crank angle at 45°, at most).
+#: A pixel aspect within this of 1 is not said (it is still used): encoders round their
+#: ratios, and 0.5 % is at most 0.15° of a crank angle.
 SQUARE_ENOUGH = 0.005
 
 #: Pictures held back to put timestamps stored in decoding order back in display
