@@ -242,8 +242,9 @@ def _track_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, help="run folder to write")
     _add_track_options(p)
     p.add_argument("--start", type=_time_or_frame, metavar="S|Nf",
-                   help="track from this time (s) or frame number (40f; a field of "
-                        "interlaced video, which is tracked a field at a time) on")
+                   help="track from this time (s from the video's start, as players "
+                        "count it) or frame number (40f; a field of interlaced video, which "
+                        "is tracked a field at a time) on")
     p.add_argument("--end", type=_time_or_frame, metavar="S|Nf",
                    help="track up to this time (s) or frame number (40f)")
     p.add_argument("--roi", type=_roi, metavar="X,Y,W,H",

@@ -500,10 +500,11 @@ def test_an_interlaced_videos_fields_are_tracked_as_frames_of_their_own(tmp_path
     assert np.abs(tab["b_y_px"] - 48).max() < 0.2
 
 
-def _slow_motion(path, said_fps=None, frames=12, px_per_frame=3.0):
+def _slow_motion(path, said_fps=None, frames=12, px_per_frame=3.0, first=0):
     """A red disc moving ``px_per_frame`` along x each frame, stored to play at 30
     frames a second, with the rate it was taken at written where Android's camera
-    writes it (``said_fps``), if given."""
+    writes it (``said_fps``), if given; the first frame at ``first``/30 s of the file's
+    clock."""
     options = {"movflags": "use_metadata_tags"} if said_fps else {}
     with av.open(str(path), "w", options=options) as out:
         if said_fps:
@@ -517,9 +518,31 @@ def _slow_motion(path, said_fps=None, frames=12, px_per_frame=3.0):
                        8 * 4 * 64, (200, 40, 40), -1, cv2.LINE_AA, 6)
             picture = cv2.resize(big, (128, 96), interpolation=cv2.INTER_AREA)
             frame = av.VideoFrame.from_ndarray(picture, format="rgb24")
-            frame.pts, frame.time_base = k, fractions.Fraction(1, 30)
+            frame.pts, frame.time_base = first + k, fractions.Fraction(1, 30)
             out.mux(s.encode(frame))
         out.mux(s.encode())
+
+
+def test_times_count_from_the_start_of_the_files_clock(tmp_path):
+    # MPEG transport streams (a camcorder's .MTS) start their clock late, as FFmpeg's
+    # muxer does at 1.4 s: `--start 0.1` was 1.3 s before the first frame, and a player
+    # shows that frame at 0.
+    from cranktrack.tracker.markers import parse_markers
+    from cranktrack.tracker.track import Span, track
+
+    late = tmp_path / "camcorder.mts"
+    _slow_motion(late, first=42)
+    source = open_frames(late)
+    assert source.clock_start_s == pytest.approx(1.4)
+    assert any("clock starts at 1.4 s" in p for p in source.problems)
+    assert [f.t_s for f in source.frames()][:3] == pytest.approx([0.0, 1 / 30, 2 / 30])
+    tab = track(open_frames(late), parse_markers(["b=red"]), span=Span(0.1, 0.2)).tracks
+    assert tab["frame"].tolist() == [3, 4, 5, 6]
+    assert np.abs(tab["b_x_px"] - (30 + 90 * tab["t_s"])).max() < 0.2
+    plain = tmp_path / "plain.mp4"
+    _slow_motion(plain)
+    source = open_frames(plain)
+    assert source.clock_start_s == 0.0 and not source.problems
 
 
 def test_slow_motion_is_timed_as_it_was_taken(tmp_path):

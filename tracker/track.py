@@ -624,7 +624,8 @@ def _whole_and_honest(state: MarkerState, centre: Centre, seen: NDArray | None
 @dataclass(frozen=True)
 class Span:
     """The part of a video to track: from ``start`` to ``end`` inclusive, in seconds
-    of the video's clock, or in frame numbers when ``unit`` is ``"frame"``."""
+    from the start of the video's clock (:attr:`.video.FrameSource.clock_start`, as players
+    count them), or in frame numbers when ``unit`` is ``"frame"``."""
 
     start: float = 0.0
     end: float = float("inf")

@@ -17,6 +17,7 @@ import threading
 from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+from fractions import Fraction
 from functools import cached_property
 from pathlib import Path
 
@@ -323,6 +324,22 @@ def taking_scale(plays_fps: float | None, given_fps: float | None, said_fps: flo
         f"{plays_fps / taken:.4g} to those of the taking, {why}")
 
 
+#: A start of the file's clock this far from 0 (s) is said: FFmpeg's MP4 and MOV muxers
+#: start at 0, its MPEG-PS muxer at 0.54 s and its MPEG-TS muxer at 1.4 s.
+CLOCK_START_SAID = 1e-3
+
+
+def _clock_start(container: av.container.InputContainer, stream: av.VideoStream
+                 ) -> Fraction:
+    """The file's clock at its start, s: the container's start time (the earliest of its
+    streams', as players and ``ffmpeg -ss`` take it), else the video stream's, else 0."""
+    if container.start_time is not None:
+        return Fraction(container.start_time, av.time_base)
+    if stream.start_time is not None and stream.time_base:
+        return stream.start_time * stream.time_base
+    return Fraction(0)
+
+
 def _first_picture(container: av.container.InputContainer, stream: av.VideoStream
                    ) -> tuple[float | None, bool]:
     """The display rotation (degrees counter-clockwise, None where none is stored) of
@@ -372,10 +389,21 @@ class FrameSource:
     #: Seconds of the taking per second of the file's own clock: 1/8 for a phone's slow
     #: motion taken at 240 frames a second and stored to play at 30 (:func:`taking_scale`).
     time_scale: float = 1.0
+    #: The file's clock at its start (s of the file's clock): the container's start time.
+    #: MPEG program and transport streams (a DVD camera's .mpg, a camcorder's .MTS or
+    #: .m2t) start theirs at half a second or more. Frame times are counted from it, as
+    #: players show them and as ``ffmpeg -ss`` seeks. Exact, so that a frame's time from
+    #: it is its timestamp's to the last bit (a frame on ``--end`` is in).
+    clock_start: Fraction = Fraction(0)
     #: Bits a sample of a folder's pictures hold (8, or 10-16 in 16-bit files), from
     #: the first (:func:`.pictures.sample_bits`); they are read scaled from that depth to 8 bits.
     sample_bits: int = 8
     _images: list[Path] = field(default_factory=list, repr=False)
+
+    @property
+    def clock_start_s(self) -> float:
+        """The file's clock at its start, s (:attr:`clock_start`)."""
+        return float(self.clock_start)
 
     def frames(self, prefetch: int = 0) -> Iterator[Frame]:
         """Yield frames in display order (see ``REORDER_DEPTH``).
@@ -407,7 +435,8 @@ class FrameSource:
 
         def take(frame: av.VideoFrame) -> bool:
             """Hold a decoded picture with its time; whether it had none of its own."""
-            t = frame.time
+            t = None if frame.pts is None or not frame.time_base else \
+                frame.pts * frame.time_base - self.clock_start
             if t is not None:
                 t_s = float(t) * self.time_scale
             else:
@@ -640,7 +669,13 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
                                  (s.frames or 0) * per_frame or None, codec.name,
                                  duration_s=duration and duration * scale, quarter_turns=turns,
                                  pixel_aspect=aspect, fields=interlaced, time_scale=scale,
-                                 first_field=first_field if interlaced else "auto")
+                                 first_field=first_field if interlaced else "auto",
+                                 clock_start=_clock_start(container, s))
+            if abs(source.clock_start_s) >= CLOCK_START_SAID:
+                source.problems.append(
+                    f"the file's clock starts at {source.clock_start_s:.4g} s, not 0; frame "
+                    "times, --start, --end and --at are counted from its start, as players "
+                    "show them")
             if order_note:
                 source.problems.append(order_note)
             if taken is not None:
