@@ -625,3 +625,53 @@ def test_progressive_frames_flagged_interlaced_are_tracked_whole(tmp_path):
     assert not source.fields and source.nominal_fps == pytest.approx(25.0)
     assert any("one instant" in p for p in source.problems)
     assert len(list(source.frames())) == 8
+
+
+def _white_disc(t: float) -> np.ndarray:
+    """A white disc (radius 10 px) at (40 + 60 t, 30) px on dark grey, 96×64, drawn 4×
+    over and averaged down."""
+    big = np.full((64 * 4, 96 * 4, 3), 50, np.uint8)
+    x = 40 + 60 * t
+    cv2.circle(big, (round(((x + 0.5) * 4 - 0.5) * 64), round((30.5 * 4 - 0.5) * 64)),
+               10 * 4 * 64, (230, 230, 230), -1, cv2.LINE_AA, 6)
+    return cv2.resize(big, (96, 64), interpolation=cv2.INTER_AREA)
+
+
+def test_pictures_without_colour_are_said_and_hue_markers_refused(tmp_path):
+    # A monochrome camera (as many lab and high-speed cameras are) records brightness
+    # alone: every marker found by hue was "not found in any frame; check its colour".
+    from cranktrack.tracker.markers import parse_markers
+    from cranktrack.tracker.track import track
+
+    grey = tmp_path / "mono.mkv"
+    with av.open(str(grey), "w") as out:
+        s = out.add_stream("ffv1", rate=25)
+        s.width, s.height, s.pix_fmt = 96, 64, "gray"
+        for k in range(8):
+            frame = av.VideoFrame.from_ndarray(_white_disc(k / 25), format="rgb24")
+            frame = frame.reformat(format="gray")
+            frame.pts, frame.time_base = k, fractions.Fraction(1, 25)
+            out.mux(s.encode(frame))
+        out.mux(s.encode())
+    source = open_frames(grey)
+    assert not source.stores_colour and source.pixel_format == "gray"
+    assert any("stored without colour" in p for p in source.problems)
+    with pytest.raises(CranktrackError, match="markers A, B, C, found by hue, cannot be seen"):
+        track(source)
+    tab = track(open_frames(grey), parse_markers(["dot=white"])).tracks
+    assert tab["dot_ok"].all()
+    assert np.abs(tab["dot_x_px"] - (40 + 60 * tab["t_s"])).max() < 0.05
+    # The same camera's pictures coded as colour video: flat chroma, said, not refused.
+    coded = tmp_path / "mono.mp4"
+    with VideoWriter(coded, 96, 64, 25.0, crf=18) as w:
+        for k in range(4):
+            w.write(_white_disc(k / 25), k / 25)
+    source = open_frames(coded)
+    assert source.stores_colour and not source.colour
+    assert any("no colour in its first picture" in p for p in source.problems)
+    # A folder of one-channel pictures is stored without colour too.
+    folder = tmp_path / "frames"
+    folder.mkdir()
+    for k in range(3):
+        cv2.imwrite(str(folder / f"f{k:03d}.png"), _white_disc(k / 25)[..., 0])
+    assert not open_frames(folder, fps=25.0).stores_colour

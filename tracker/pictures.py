@@ -55,6 +55,39 @@ def read_picture(path: Path, bits: int = 8) -> NDArray[np.uint8] | None:
     return cv2.cvtColor(raw, cv2.COLOR_BGR2RGB)
 
 
+def picture_channels(path: Path) -> int:
+    """How many channels a picture file stores: 1 for grey (a monochrome camera's), 2
+    for grey with alpha, 3 or 4 for colour; 0 where OpenCV cannot read it."""
+    raw = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    return 0 if raw is None else 1 if raw.ndim == 2 else raw.shape[2]
+
+
+#: A picture holds no colour when at most this fraction of its pixels have channels
+#: more than :data:`GREY_DN` apart: a monochrome camera's, coded as colour video (its
+#: chroma planes flat at their middle), converted back to RGB within a DN.
+GREY_FRACTION = 1e-3
+GREY_DN = 2
+#: ...and it shows something: its brightness spreads over at least this (DN, standard
+#: deviation). A black or blank picture says nothing of the camera's colour.
+SHOWS_DN = 2.0
+
+
+def holds_colour(rgb: NDArray[np.uint8]) -> bool:
+    """Does an RGB picture (h, w, 3) hold colour? False only where it shows something
+    and nearly every pixel of it is grey (:data:`GREY_FRACTION`).
+
+    >>> import numpy as np
+    >>> ramp = np.repeat(np.arange(0, 250, 5, dtype=np.uint8)[None, :, None], 3, axis=2)
+    >>> holds_colour(ramp), holds_colour(ramp[..., ::-1] // [1, 1, 2]), holds_colour(0 * ramp)
+    (False, True, True)
+    """
+    grey = rgb.mean(axis=2)
+    if grey.std() < SHOWS_DN:
+        return True
+    spread = rgb.max(axis=2).astype(np.int16) - rgb.min(axis=2)
+    return bool(np.mean(spread > GREY_DN) > GREY_FRACTION)
+
+
 def _natural_key(p: Path) -> list:
     return [int(s) if s.isdigit() else s.lower() for s in re.split(r"(\d+)", p.name)]
 

@@ -1026,8 +1026,17 @@ def track(
     Raises
     ------
     CranktrackError
-        No frame could be decoded.
+        No frame could be decoded, or a marker found by hue is asked for in pictures
+        stored without colour (:attr:`.video.FrameSource.stores_colour`).
     """
+    hued = [s.name for s in specs if not s.tone]
+    if hued and not source.stores_colour:
+        raise CranktrackError(
+            f"{source.path.name} is stored without colour ({source.pixel_format}, as "
+            f"monochrome cameras record), so marker{'s' * (len(hued) > 1)} "
+            f"{', '.join(hued)}, found by hue, cannot be seen in it; name white, black or "
+            f"grey markers instead (--marker NAME=white@X,Y), as `cranktrack inspect` lists "
+            "them")
     cut = None if roi is None else roi.inside((source.width, source.height))
     state = resume or TrackerState.start(_within(specs, cut))
     done = state.last_frame

@@ -32,7 +32,9 @@ from .fields import Fields, interlacing
 from .pictures import (
     IMAGE_SUFFIXES,
     PICTURE_FLAGS,
+    holds_colour,
     numbered_pictures,
+    picture_channels,
     read_picture,
     sample_bits,
     sequence_of,
@@ -324,6 +326,20 @@ def taking_scale(plays_fps: float | None, given_fps: float | None, said_fps: flo
         f"{plays_fps / taken:.4g} to those of the taking, {why}")
 
 
+#: Pixel formats of brightness alone (FFmpeg's names begin so): monochrome cameras'.
+GREY_FORMATS = ("gray", "ya8", "ya16", "monob", "monow")
+
+
+def _colourless(source: FrameSource) -> str:
+    """The sentence that says ``source``'s pictures hold no colour."""
+    what = (f"is stored without colour ({source.pixel_format}, as monochrome cameras "
+            "record)" if not source.stores_colour
+            else "holds no colour in its first picture (every pixel grey)")
+    return (f"the {'folder' if source.kind == 'images' else 'video'} {what}: markers are "
+            "found by hue, except white, black and grey ones; name those (--marker "
+            "NAME=white@X,Y), as `cranktrack inspect` lists them")
+
+
 #: A start of the file's clock this far from 0 (s) is said: FFmpeg's MP4 and MOV muxers
 #: start at 0, its MPEG-PS muxer at 0.54 s and its MPEG-TS muxer at 1.4 s.
 CLOCK_START_SAID = 1e-3
@@ -341,17 +357,19 @@ def _clock_start(container: av.container.InputContainer, stream: av.VideoStream
 
 
 def _first_picture(container: av.container.InputContainer, stream: av.VideoStream
-                   ) -> tuple[float | None, bool]:
+                   ) -> tuple[float | None, bool, str, bool]:
     """The display rotation (degrees counter-clockwise, None where none is stored) of
-    the stream's first picture, and whether it is interlaced (False where no picture
-    can be decoded)."""
+    the stream's first picture, whether it is interlaced, its pixel format, and whether
+    it holds colour (:func:`.pictures.holds_colour`); (None, False, "", True) where no
+    picture can be decoded."""
     try:
         for packet in container.demux(stream):
             for frame in packet.decode():
-                return frame.rotation, bool(frame.interlaced_frame)
+                return (frame.rotation, bool(frame.interlaced_frame), frame.format.name,
+                        holds_colour(frame.to_ndarray(format="rgb24")))
     except av.FFmpegError:
         pass
-    return None, False
+    return None, False, "", True
 
 
 @dataclass
@@ -395,10 +413,22 @@ class FrameSource:
     #: players show them and as ``ffmpeg -ss`` seeks. Exact, so that a frame's time from
     #: it is its timestamp's to the last bit (a frame on ``--end`` is in).
     clock_start: Fraction = Fraction(0)
+    #: The decoder's pixel format ("yuv420p", "gray", …; a folder's: "gray" for pictures
+    #: of one channel, else "").
+    pixel_format: str = ""
+    #: The first picture holds colour: not every pixel of it grey while the picture
+    #: shows something (:func:`.pictures.holds_colour`).
+    colour: bool = True
     #: Bits a sample of a folder's pictures hold (8, or 10-16 in 16-bit files), from
     #: the first (:func:`.pictures.sample_bits`); they are read scaled from that depth to 8 bits.
     sample_bits: int = 8
     _images: list[Path] = field(default_factory=list, repr=False)
+
+    @property
+    def stores_colour(self) -> bool:
+        """Can the pictures hold colour at all? Not where they are stored as brightness
+        alone (a monochrome camera's ``gray``, ``gray16le``, …)."""
+        return not self.pixel_format.startswith(GREY_FORMATS)
 
     @property
     def clock_start_s(self) -> float:
@@ -620,7 +650,11 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
         h, w = first.shape[:2]
         bits = sample_bits(first)
         source = FrameSource(p, "images", w, h, float(fps), len(images), "images",
-                             sample_bits=bits, _images=images)
+                             sample_bits=bits, _images=images,
+                             pixel_format="gray" if picture_channels(images[0]) < 3 else "",
+                             colour=holds_colour(read_picture(images[0], bits)))
+        if not source.stores_colour or not source.colour:
+            source.problems.append(_colourless(source))
         if bits > 8:
             source.problems.append(
                 f"the pictures are 16-bit files holding {bits}-bit samples (the first's "
@@ -656,7 +690,7 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
                 raise CranktrackError(f"{p} has a damaged video stream header (no decoder or "
                                       "frame size in it); it cannot be read")
             scale, taken = taking_scale(rate, fps, _said_taken_fps(container, s))
-            rotation, interlaced = _first_picture(container, s)
+            rotation, interlaced, pixel_format, colour = _first_picture(container, s)
             turns = upright_turns(rotation)
             w, h = (codec.height, codec.width) if turns % 2 else (codec.width, codec.height)
             sar = s.sample_aspect_ratio or codec.sample_aspect_ratio
@@ -670,7 +704,10 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
                                  duration_s=duration and duration * scale, quarter_turns=turns,
                                  pixel_aspect=aspect, fields=interlaced, time_scale=scale,
                                  first_field=first_field if interlaced else "auto",
-                                 clock_start=_clock_start(container, s))
+                                 clock_start=_clock_start(container, s),
+                                 pixel_format=pixel_format, colour=colour)
+            if not source.stores_colour or not colour:
+                source.problems.append(_colourless(source))
             if abs(source.clock_start_s) >= CLOCK_START_SAID:
                 source.problems.append(
                     f"the file's clock starts at {source.clock_start_s:.4g} s, not 0; frame "
