@@ -402,14 +402,17 @@ HLG_BT2020 = ":colorprim=bt2020:transfer=arib-std-b67:colormatrix=bt2020nc"
     ("libx265", "yuv420p10le", {"x265-params": "log-level=error:lossless=1" + HLG_BT2020}, 0.06),
     ("libx265", "yuv420p12le", {"x265-params": "log-level=error:lossless=1"}, 0.06),
     ("libx264", "yuv422p10le", {"crf": "0"}, 0.06),
-    ("libx264", "yuv422p", {"crf": "0"}, 0.06)])
+    ("libx264", "yuv422p", {"crf": "0"}, 0.06),
+    ("rawvideo", "yuyv422", {}, 0.06),
+    ("rawvideo", "uyvy422", {}, 0.06)])
 def test_deep_and_422_video_put_the_markers_where_they_were_drawn(tmp_path, encoder, layout,
                                                                  options, bound):
     # Phones film HDR as 10-bit HEVC; video cameras write 10-bit 4:2:2, MJPEG webcams
     # 8-bit 4:2:2. FFmpeg's own RGB conversion of more than 8 bits put the chroma about
     # half a pixel left of where its 8-bit conversion of the same planes does: discs
     # drawn at whole pixels were found 0.45 px (4:2:0) and 0.41 px (4:2:2) off in x.
-    # Its conversion of 8-bit 4:2:2 put them 0.07-0.09 px off, by column parity.
+    # Its conversion of 8-bit 4:2:2 put them 0.07-0.09 px off, by column parity, and
+    # of a webcam's packed YUYV and UYVY alike (0.09 px).
     from cranktrack.tracker.markers import parse_markers
     from cranktrack.tracker.track import track
 
@@ -433,6 +436,34 @@ def test_deep_and_422_video_put_the_markers_where_they_were_drawn(tmp_path, enco
     assert tab["g_ok"].all()
     assert np.abs(tab["g_x_px"] - (40 + 3 * tab["frame"])).max() < bound
     assert np.abs(tab["g_y_px"] - 50).max() < bound
+
+
+def test_nv12_is_read_as_the_4_2_0_planes_it_holds(tmp_path):
+    # NV12 (hardware decoders and capture cards: U and V interleaved) was converted whole
+    # by FFmpeg on every frame; as the planes of 4:2:0 it is converted only where a
+    # marker is looked for, and its frames are those of the same video stored planar.
+    from cranktrack.tracker.planes import plane_samples
+
+    rgb = np.full((48, 64, 3), 90, np.uint8)
+    cv2.circle(rgb, (30, 20), 8, (40, 190, 70), -1)
+    planar = av.VideoFrame.from_ndarray(rgb, format="rgb24").reformat(format="yuv420p")
+    # The same samples, U and V interleaved.
+    nv12 = av.VideoFrame(64, 48, "nv12")
+    np.frombuffer(nv12.planes[0], np.uint8).reshape(48, -1)[:, :64] = plane_samples(planar, 0)
+    uv = np.frombuffer(nv12.planes[1], np.uint8).reshape(24, -1)
+    uv[:, 0:64:2], uv[:, 1:64:2] = plane_samples(planar, 1), plane_samples(planar, 2)
+    clips = {}
+    for layout, frame in (("nv12", nv12), ("yuv420p", planar)):
+        clips[layout] = tmp_path / f"{layout}.mkv"
+        with av.open(str(clips[layout]), "w") as out:
+            s = out.add_stream("rawvideo", rate=10)
+            s.width, s.height, s.pix_fmt = 64, 48, layout
+            frame.pts, frame.time_base = 0, fractions.Fraction(1, 10)
+            out.mux(s.encode(frame))
+            out.mux(s.encode())
+    nv12, planar = (next(open_frames(clips[k]).frames()) for k in ("nv12", "yuv420p"))
+    assert nv12.layout == planar.layout == "i420"
+    np.testing.assert_array_equal(nv12.pixels, planar.pixels)
 
 
 def _interlaced_disc(path, frames=8, speed_px_s=200.0, first="bottom"):
