@@ -5,7 +5,8 @@ by OpenCV, 16× over and averaged down (``cv2.INTER_AREA``), and coded in each
 layout cameras and phones store: 8-bit 4:2:0 in BT.601 and BT.709, full range, 4:2:2
 (MJPEG webcams, ProRes), 4:4:4, 10- and 12-bit (a phone's HDR HEVC), a display
 rotation (a phone filming upright), non-square pixels (DV, HDV) and interlaced fields
-(DV and HDV camcorders). The truth is where they were drawn, in the picture a player
+(DV and HDV camcorders), a webcam's raw YUYV, NV12, and a camcorder's MPEG transport
+stream, whose clock starts at 1.4 s. The truth is where they were drawn, in the picture a player
 shows; it shares no code with cranktrack's reader or tracker. Per format the bench
 prints each disc's mean offset from its drawn place along x and y (px, over 20
 frames; A moves 2 px a frame along x, B 1 px along y), the frames it was found in,
@@ -65,6 +66,10 @@ FORMATS = [
      {"sar": fractions.Fraction(4, 3)}),
     ("H.264 interlaced, bottom field first", "libx264", "yuv420p",
      {"crf": "0", "x264-params": "interlaced=1:tff=1"}, "mp4", {"interlaced": True}),
+    ("raw YUYV 4:2:2 (a webcam's own)", "rawvideo", "yuyv422", {}, "avi", {}),
+    ("raw NV12 (capture cards)", "rawvideo", "nv12", {}, "mkv", {}),
+    ("H.264 MPEG-TS (.MTS), clock from 1.4 s", "libx264", "yuv420p", {"crf": "0"}, "ts",
+     {"clock_s": 1.4}),
 ]
 
 #: Where each disc is drawn at time t (s), in the shown picture's pixels (px), at 25 fps.
@@ -127,7 +132,8 @@ def write(path: Path, encoder: str, layout: str, options: dict, says: dict,
                 picture = np.ascontiguousarray(np.rot90(draw(k / 25, width), -turns))
                 frame = av.VideoFrame.from_ndarray(picture, format="rgb24").reformat(
                     format=layout)
-            frame.pts, frame.time_base = k, fractions.Fraction(1, 25)
+            frame.pts = k + round(25 * says.get("clock_s", 0.0))
+            frame.time_base = fractions.Fraction(1, 25)
             out.mux(s.encode(frame))
         out.mux(s.encode())
 
