@@ -706,3 +706,29 @@ def test_pictures_without_colour_are_said_and_hue_markers_refused(tmp_path):
     for k in range(3):
         cv2.imwrite(str(folder / f"f{k:03d}.png"), _white_disc(k / 25)[..., 0])
     assert not open_frames(folder, fps=25.0).stores_colour
+
+
+def test_frames_of_another_size_part_way_are_skipped_and_said(tmp_path):
+    # Two MPEG transport streams joined byte for byte (as recorders split and users
+    # join them), the second at twice the size: its frames were tracked in the first's
+    # pixels, the markers "not found" in them, and nothing said why.
+    parts = []
+    for k, (w, h) in enumerate([(64, 48), (128, 96)]):
+        part = tmp_path / f"part{k}.ts"
+        with av.open(str(part), "w") as out:
+            s = out.add_stream("libx264", rate=10, options={"crf": "0"})
+            s.width, s.height, s.pix_fmt = w, h, "yuv420p"
+            for j in range(4):
+                frame = av.VideoFrame.from_ndarray(np.full((h, w, 3), 90, np.uint8),
+                                                   format="rgb24")
+                frame.pts, frame.time_base = 4 * k + j, fractions.Fraction(1, 10)
+                out.mux(s.encode(frame))
+            out.mux(s.encode())
+        parts.append(part.read_bytes())
+    joined = tmp_path / "joined.ts"
+    joined.write_bytes(b"".join(parts))
+    source = open_frames(joined)
+    frames = list(source.frames())
+    assert [f.index for f in frames] == [0, 1, 2, 3]
+    assert all(f.size == (64, 48) for f in frames)
+    assert any("4 frame(s), from frame 4 to 7, are 128×96" in p for p in source.problems)

@@ -462,6 +462,15 @@ class FrameSource:
         pending: deque[tuple] = deque()
         times: list[float] = []
         first_t, last_t = float("nan"), float("nan")
+        resized: list[tuple[int, tuple[int, int]]] = []  # frames not of the video's size
+
+        def sized(frame: Frame) -> Iterator[Frame]:
+            """The frame, unless it is not the video's size: a recording that changed its
+            size part way, or two joined (its pixels would put the markers elsewhere)."""
+            if frame.size == (self.width, self.height):
+                yield frame
+            else:
+                resized.append((frame.index, frame.size))
 
         def take(frame: av.VideoFrame) -> bool:
             """Hold a decoded picture with its time; whether it had none of its own."""
@@ -510,11 +519,18 @@ class FrameSource:
                 for frame in decoded if fields is None else fields.split(decoded):
                     missing_pts |= take(frame)
                     if len(pending) > REORDER_DEPTH:
-                        yield emit()
+                        yield from sized(emit())
             for frame in [] if fields is None else fields.split([None]):  # the last fields
                 missing_pts |= take(frame)
             while pending:
-                yield emit()
+                yield from sized(emit())
+        if resized:
+            (first, (w, h)), last = resized[0], resized[-1][0]
+            self.problems.append(
+                f"{len(resized)} frame(s), from frame {first} to {last}, are {w}×{h} px or "
+                f"another size, not {self.width}×{self.height} like the video's first (the "
+                "recording changed its size part way, or two were joined): they were skipped; "
+                "cut that part into a file of its own to track it")
         if skipped:
             where = ", ".join(str(k) for k in sorted(set(skipped))[:10])
             self.problems.append(f"{len(skipped)} corrupt packet(s) were skipped (after frame(s) "
