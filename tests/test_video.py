@@ -732,3 +732,17 @@ def test_frames_of_another_size_part_way_are_skipped_and_said(tmp_path):
     assert [f.index for f in frames] == [0, 1, 2, 3]
     assert all(f.size == (64, 48) for f in frames)
     assert any("4 frame(s), from frame 4 to 7, are 128×96" in p for p in source.problems)
+
+
+def test_a_folder_of_float_pictures_ends_in_one_sentence(tmp_path):
+    # 32-bit float TIFFs (a scientific camera's export) are not pictures the reader
+    # takes: opening the folder looked for colour in a picture it could not read.
+    from cranktrack.tracker.track import track
+
+    for k in range(3):
+        cv2.imwrite(str(tmp_path / f"f{k}.tif"),
+                    np.random.default_rng(k).random((24, 32, 3)).astype(np.float32))
+    source = open_frames(tmp_path, fps=10.0)
+    with pytest.raises(CranktrackError, match="could be decoded"):
+        track(source)
+    assert any("could not be read as an image" in p for p in source.problems)

@@ -665,10 +665,12 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
             raise CranktrackError(f"{images[0]} is not an image OpenCV can read")
         h, w = first.shape[:2]
         bits = sample_bits(first)
+        rgb = read_picture(images[0], bits)  # None for samples of another type (float)
         source = FrameSource(p, "images", w, h, float(fps), len(images), "images",
                              sample_bits=bits, _images=images,
-                             pixel_format="gray" if picture_channels(images[0]) < 3 else "",
-                             colour=holds_colour(read_picture(images[0], bits)))
+                             pixel_format="gray" if picture_channels(images[0]) in (1, 2)
+                             else "",
+                             colour=rgb is None or holds_colour(rgb))
         if not source.stores_colour or not source.colour:
             source.problems.append(_colourless(source))
         if bits > 8:
