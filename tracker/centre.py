@@ -190,5 +190,7 @@ def _core_peak(alpha: NDArray, cx: float, cy: float, reach: float) -> float:
                 n += 1
     if n == 0:
         return np.nan
-    ranked = np.sort(values[:n])
-    return ranked[int(0.9 * (n - 1))]
+    # The one order statistic, not a whole sort: 4,000 pixels for a marker of radius
+    # 60 px, 13 % of tracking there. NaN (a wire's band left out) ranks last in both.
+    k = int(0.9 * (n - 1))
+    return np.partition(values[:n], k)[k]
