@@ -743,6 +743,7 @@ def test_a_folder_of_float_pictures_ends_in_one_sentence(tmp_path):
         cv2.imwrite(str(tmp_path / f"f{k}.tif"),
                     np.random.default_rng(k).random((24, 32, 3)).astype(np.float32))
     source = open_frames(tmp_path, fps=10.0)
-    with pytest.raises(CranktrackError, match="could be decoded"):
+    # The error says why (what reading the frames said).
+    with pytest.raises(CranktrackError, match=r"could be decoded \(f0.tif could not be read "
+                                              r"as an 8- or 16-bit picture"):
         track(source)
-    assert any("could not be read as an image" in p for p in source.problems)

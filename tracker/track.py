@@ -1041,6 +1041,7 @@ def track(
     state = resume or TrackerState.start(_within(specs, cut))
     done = state.last_frame
     span = span or Span()
+    said = len(source.problems)  # what reading the frames says is added after these
     try:
         with _between_frames() as asked:
             for frame in source.frames(prefetch=8):
@@ -1064,9 +1065,11 @@ def track(
     except KeyboardInterrupt as e:
         raise TrackingInterrupted(state) from e
     if not state.rows:
+        # Why, where reading said it: pictures it could not read, frames of another size.
+        why = f" ({source.problems[said]})" if len(source.problems) > said else ""
         if span.given:
-            raise CranktrackError(f"no frame of {source.path} lies {span.describe()}")
-        raise CranktrackError(f"no frame of {source.path} could be decoded")
+            raise CranktrackError(f"no frame of {source.path} lies {span.describe()}{why}")
+        raise CranktrackError(f"no frame of {source.path} could be decoded{why}")
     tracks = tracks_table(state.rows, specs, state.radii())
     found = {s.name: float(tracks[s.name + "_ok"].mean()) for s in specs}
     learned = {st.spec.name: {"hue_deg": round(st.spec.hue_deg, 2),

@@ -570,7 +570,8 @@ class FrameSource:
         for index, p in enumerate(self._images):
             rgb = read_picture(p, self.sample_bits)
             if rgb is None:
-                self.problems.append(f"{p.name} could not be read as an image and was skipped")
+                self.problems.append(f"{p.name} could not be read as an 8- or 16-bit picture "
+                                     "and was skipped")
                 continue
             if rgb.shape[1::-1] != (self.width, self.height):
                 # A picture of another size is not a frame of this clip: its pixels
