@@ -373,7 +373,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     from .tracker.marker_state import rig_focus_note
     from .tracker.pictures import sequence_of
     from .tracker.survey import crank_slider, frame_and_later, rig_edges, survey
-    from .tracker.video import open_frames
+    from .tracker.video import colourless_note, open_frames
 
     video = Path(args.video)
     # A second frame a little later tells what moves: what people film markers for.
@@ -381,8 +381,9 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     frame, later = frame_and_later(source.frames(), lambda f: f.t_s >= args.at)
     # What the reader says of the file (turned, interlaced, non-square pixels) holds
     # for the picture and every place in it.
-    for note in dict.fromkeys(source.problems):
-        print(note)
+    for note in dict.fromkeys([*source.problems, colourless_note(source)]):
+        if note:
+            print(note)
     # One picture of a numbered sequence: the commands below track its folder, and the
     # PNG is not written in among the frames.
     sequence = sequence_of(video)

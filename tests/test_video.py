@@ -684,13 +684,17 @@ def test_pictures_without_colour_are_said_and_hue_markers_refused(tmp_path):
             frame.pts, frame.time_base = k, fractions.Fraction(1, 25)
             out.mux(s.encode(frame))
         out.mux(s.encode())
+    from cranktrack.tracker.video import colourless_note
+
     source = open_frames(grey)
     assert not source.stores_colour and source.pixel_format == "gray"
-    assert any("stored without colour" in p for p in source.problems)
+    assert "stored without colour" in colourless_note(source)
     with pytest.raises(CranktrackError, match="markers A, B, C, found by hue, cannot be seen"):
         track(source)
-    tab = track(open_frames(grey), parse_markers(["dot=white"])).tracks
+    white = track(open_frames(grey), parse_markers(["dot=white"]))
+    tab = white.tracks
     assert tab["dot_ok"].all()
+    assert not any("colour" in p for p in white.problems)  # named as it should be
     assert np.abs(tab["dot_x_px"] - (40 + 60 * tab["t_s"])).max() < 0.05
     # The same camera's pictures coded as colour video: flat chroma, said, not refused.
     coded = tmp_path / "mono.mp4"
@@ -699,7 +703,7 @@ def test_pictures_without_colour_are_said_and_hue_markers_refused(tmp_path):
             w.write(_white_disc(k / 25), k / 25)
     source = open_frames(coded)
     assert source.stores_colour and not source.colour
-    assert any("no colour in its first picture" in p for p in source.problems)
+    assert any("no colour in its first picture" in p for p in track(source).problems)
     # A folder of one-channel pictures is stored without colour too.
     folder = tmp_path / "frames"
     folder.mkdir()

@@ -57,7 +57,7 @@ from .search import (
     search_window,
     window,
 )
-from .video import Frame, FrameSource, timing_report
+from .video import Frame, FrameSource, colourless_note, timing_report
 
 #: Why a marker has no position in a frame (the ``_status`` column).
 STATUSES = {
@@ -1081,5 +1081,7 @@ def track(
     notes += [note for st in state.markers if found[st.spec.name] == 0
               and (note := st.never_found_note())]
     notes += focus_notes(state.markers, found) + lighting_notes(state.lights)
+    if hued and (note := colourless_note(source)):
+        notes.insert(0, note)
     return TrackResult(tracks, timing_report(tracks["t_s"].to_numpy(), source.nominal_fps),
                        found, list(source.problems) + notes, learned, state)

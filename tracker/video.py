@@ -330,8 +330,12 @@ def taking_scale(plays_fps: float | None, given_fps: float | None, said_fps: flo
 GREY_FORMATS = ("gray", "ya8", "ya16", "monob", "monow")
 
 
-def _colourless(source: FrameSource) -> str:
-    """The sentence that says ``source``'s pictures hold no colour."""
+def colourless_note(source: FrameSource) -> str | None:
+    """The sentence that says ``source``'s pictures hold no colour (stored without it,
+    or its first picture all grey), or None. Said by ``inspect``, and by ``track`` where
+    markers found by hue are asked for: not to a user who named white or black ones."""
+    if source.stores_colour and source.colour:
+        return None
     what = (f"is stored without colour ({source.pixel_format}, as monochrome cameras "
             "record)" if not source.stores_colour
             else "holds no colour in its first picture (every pixel grey)")
@@ -672,8 +676,6 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
                              pixel_format="gray" if picture_channels(images[0]) in (1, 2)
                              else "",
                              colour=rgb is None or holds_colour(rgb))
-        if not source.stores_colour or not source.colour:
-            source.problems.append(_colourless(source))
         if bits > 8:
             source.problems.append(
                 f"the pictures are 16-bit files holding {bits}-bit samples (the first's "
@@ -725,8 +727,6 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
                                  first_field=first_field if interlaced else "auto",
                                  clock_start=_clock_start(container, s),
                                  pixel_format=pixel_format, colour=colour)
-            if not source.stores_colour or not colour:
-                source.problems.append(_colourless(source))
             if abs(source.clock_start_s) >= CLOCK_START_SAID:
                 source.problems.append(
                     f"the file's clock starts at {source.clock_start_s:.4g} s, not 0; frame "
