@@ -656,44 +656,55 @@ def open_frames(path: str | os.PathLike, fps: float | None = None,
     if not p.exists():
         raise CranktrackError(f"{p} does not exist; check the path")
     if p.is_dir():
-        images, left_out = numbered_pictures(p)
-        if not images:
-            raise CranktrackError(
-                f"{p} is a folder with no images in it; give a video file or a folder of "
-                f"numbered {'/'.join(s[1:] for s in IMAGE_SUFFIXES)} images")
-        if fps is None:
-            raise CranktrackError(
-                f"{p} is a folder of images, which carry no timestamps; give its frame rate "
-                "with --fps")
-        first = cv2.imread(str(images[0]), PICTURE_FLAGS)
-        if first is None:
-            raise CranktrackError(f"{images[0]} is not an image OpenCV can read")
-        h, w = first.shape[:2]
-        bits = sample_bits(first)
-        rgb = read_picture(images[0], bits)  # None for samples of another type (float)
-        source = FrameSource(p, "images", w, h, float(fps), len(images), "images",
-                             sample_bits=bits, _images=images,
-                             pixel_format="gray" if picture_channels(images[0]) in (1, 2)
-                             else "",
-                             colour=rgb is None or holds_colour(rgb))
-        if bits > 8:
-            source.problems.append(
-                f"the pictures are 16-bit files holding {bits}-bit samples (the first's "
-                f"brightest is {int(first.max())}); they are read scaled from {bits} bits "
-                "to 8")
-        if left_out:
-            shown = ", ".join(q.name for q in left_out[:3]) + (", …" if len(left_out) > 3
-                                                               else "")
-            source.problems.append(
-                f"{len(left_out)} other picture(s) in the folder are not numbered like its "
-                f"{len(images)} frames and were left out ({shown})")
-        return source
+        return _open_folder(p, fps)
     if not one_picture and (sequence := sequence_of(p)) is not None:
         raise CranktrackError(
             f"{p.name} is one of {sequence} numbered pictures in {p.parent}; to use them "
             "as a clip, give the folder and its frame rate (--fps)")
     if p.stat().st_size == 0:
         raise CranktrackError(f"{p} is empty (0 bytes); it is not a video")
+    return _open_video(p, fps)
+
+
+def _open_folder(p: Path, fps: float | None) -> FrameSource:
+    """A folder of numbered pictures as a clip (:func:`open_frames`)."""
+    images, left_out = numbered_pictures(p)
+    if not images:
+        raise CranktrackError(
+            f"{p} is a folder with no images in it; give a video file or a folder of "
+            f"numbered {'/'.join(s[1:] for s in IMAGE_SUFFIXES)} images")
+    if fps is None:
+        raise CranktrackError(
+            f"{p} is a folder of images, which carry no timestamps; give its frame rate "
+            "with --fps")
+    first = cv2.imread(str(images[0]), PICTURE_FLAGS)
+    if first is None:
+        raise CranktrackError(f"{images[0]} is not an image OpenCV can read")
+    h, w = first.shape[:2]
+    bits = sample_bits(first)
+    rgb = read_picture(images[0], bits)  # None for samples of another type (float)
+    source = FrameSource(p, "images", w, h, float(fps), len(images), "images",
+                         sample_bits=bits, _images=images,
+                         pixel_format="gray" if picture_channels(images[0]) in (1, 2)
+                         else "",
+                         colour=rgb is None or holds_colour(rgb))
+    if bits > 8:
+        source.problems.append(
+            f"the pictures are 16-bit files holding {bits}-bit samples (the first's "
+            f"brightest is {int(first.max())}); they are read scaled from {bits} bits "
+            "to 8")
+    if left_out:
+        shown = ", ".join(q.name for q in left_out[:3]) + (", …" if len(left_out) > 3
+                                                           else "")
+        source.problems.append(
+            f"{len(left_out)} other picture(s) in the folder are not numbered like its "
+            f"{len(images)} frames and were left out ({shown})")
+    return source
+
+
+def _open_video(p: Path, fps: float | None) -> FrameSource:
+    """A video file as a clip (:func:`open_frames`): what its container, its stream and
+    its first picture say of it."""
     try:
         # A damaged metadata tag (not valid UTF-8) must not stop the frames being read.
         with av.open(str(p), metadata_errors="replace") as container:
