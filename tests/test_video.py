@@ -574,6 +574,12 @@ def test_times_count_from_the_start_of_the_files_clock(tmp_path):
     _slow_motion(plain)
     source = open_frames(plain)
     assert source.clock_start_s == 0.0 and not source.problems
+    # A start of a frame or two (an encoder's delay) is taken off without a word.
+    delayed = tmp_path / "delayed.mp4"
+    _slow_motion(delayed, first=2)
+    source = open_frames(delayed)
+    assert source.clock_start_s == pytest.approx(2 / 30, abs=2e-3) and not source.problems
+    assert [f.t_s for f in source.frames()][:2] == pytest.approx([0.0, 1 / 30], abs=2e-3)
 
 
 def test_slow_motion_is_timed_as_it_was_taken(tmp_path):

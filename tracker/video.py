@@ -344,19 +344,23 @@ def colourless_note(source: FrameSource) -> str | None:
             "NAME=white@X,Y), as `cranktrack inspect` lists them")
 
 
-#: A start of the file's clock this far from 0 (s) is said: FFmpeg's MP4 and MOV muxers
-#: start at 0, its MPEG-PS muxer at 0.54 s and its MPEG-TS muxer at 1.4 s.
-CLOCK_START_SAID = 1e-3
+#: A start of the file's clock this far from 0 (s) is said: FFmpeg's MPEG-PS muxer starts
+#: at 0.54 s and its MPEG-TS muxer at 1.4 s, where `--start 0.5` would be missed. Less
+#: (an encoder's delay of a frame or two, a phone's edit list) is taken from the times
+#: without a word.
+CLOCK_START_SAID = 0.1
 
 
 def _clock_start(container: av.container.InputContainer, stream: av.VideoStream
                  ) -> Fraction:
-    """The file's clock at its start, s: the container's start time (the earliest of its
-    streams', as players and ``ffmpeg -ss`` take it), else the video stream's, else 0."""
-    if container.start_time is not None:
-        return Fraction(container.start_time, av.time_base)
+    """The file's clock at the start of its video, s: the video stream's start time, else
+    the container's, else 0. Not the container's first: that is the earliest of all its
+    streams', and an audio track that starts before the first picture (an AAC
+    encoder's delay) would move every frame's time."""
     if stream.start_time is not None and stream.time_base:
         return stream.start_time * stream.time_base
+    if container.start_time is not None:
+        return Fraction(container.start_time, av.time_base)
     return Fraction(0)
 
 
@@ -411,10 +415,10 @@ class FrameSource:
     #: Seconds of the taking per second of the file's own clock: 1/8 for a phone's slow
     #: motion taken at 240 frames a second and stored to play at 30 (:func:`taking_scale`).
     time_scale: float = 1.0
-    #: The file's clock at its start (s of the file's clock): the container's start time.
+    #: The file's clock at the start of its video (s of the file's clock; :func:`_clock_start`).
     #: MPEG program and transport streams (a DVD camera's .mpg, a camcorder's .MTS or
-    #: .m2t) start theirs at half a second or more. Frame times are counted from it, as
-    #: players show them and as ``ffmpeg -ss`` seeks. Exact, so that a frame's time from
+    #: .m2t) start theirs at half a second or more. Frame times are counted from it, the
+    #: first picture at about 0, as players show them. Exact, so that a frame's time from
     #: it is its timestamp's to the last bit (a frame on ``--end`` is in).
     clock_start: Fraction = Fraction(0)
     #: The decoder's pixel format ("yuv420p", "gray", …; a folder's: "gray" for pictures
