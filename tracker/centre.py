@@ -190,7 +190,8 @@ def _core_peak(alpha: NDArray, cx: float, cy: float, reach: float) -> float:
                 n += 1
     if n == 0:
         return np.nan
-    # The one order statistic, not a whole sort: 4,000 pixels for a marker of radius
-    # 60 px, 13 % of tracking there. NaN (a wire's band left out) ranks last in both.
+    # The one order statistic, not a whole sort (4,000 pixels for a marker of radius
+    # 60 px, about 5 % of tracking there). NaN (a wire's band left out) ranks last in
+    # both, and the value is the same (3,000 random draws with NaN, a scratch check).
     k = int(0.9 * (n - 1))
     return np.partition(values[:n], k)[k]

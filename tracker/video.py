@@ -440,7 +440,7 @@ class FrameSource:
 
     @property
     def clock_start_s(self) -> float:
-        """The file's clock at its start, s (:attr:`clock_start`)."""
+        """The file's clock at the start of its video, s (:attr:`clock_start`)."""
         return float(self.clock_start)
 
     def frames(self, prefetch: int = 0) -> Iterator[Frame]:
