@@ -466,13 +466,14 @@ def test_nv12_is_read_as_the_4_2_0_planes_it_holds(tmp_path):
     np.testing.assert_array_equal(nv12.pixels, planar.pixels)
 
 
-def _interlaced_disc(path, frames=8, speed_px_s=200.0, first="bottom"):
+def _interlaced_disc(path, frames=8, speed_px_s=200.0, first="bottom", clock_frames=0):
     """A red disc moving along x at ``speed_px_s``, filmed interlaced at 25 frames a
     second: each frame's two fields taken 20 ms apart, each field's 4:2:0 colour from
     its own lines (as interlaced video codes them). The encoder flags the bottom field
     first (as it does frames that do not say which); ``first`` is the one taken first
-    ("bottom", "top"), or "both" for both at once (progressive segmented frames).
-    Returns the fields' times (s)."""
+    ("bottom", "top"), or "both" for both at once (progressive segmented frames). The
+    file's clock starts ``clock_frames`` frames in. Returns the fields' times (s) from
+    its first picture."""
     h, w = 96, 128
 
     def field(t, parity):
@@ -501,14 +502,17 @@ def _interlaced_disc(path, frames=8, speed_px_s=200.0, first="bottom"):
                 chroma[0::2] = top[half:half + h // 8].reshape(h // 4, w // 2)
                 chroma[1::2] = bottom[half:half + h // 8].reshape(h // 4, w // 2)
             frame = av.VideoFrame.from_ndarray(planes, format="yuv420p")
-            frame.pts, frame.time_base = k, fractions.Fraction(1, 25)
+            frame.pts, frame.time_base = clock_frames + k, fractions.Fraction(1, 25)
             out.mux(s.encode(frame))
         out.mux(s.encode())
     return np.arange(2 * frames) / 50
 
 
-@pytest.mark.parametrize("first", ["bottom", "top"])
-def test_an_interlaced_videos_fields_are_tracked_as_frames_of_their_own(tmp_path, first):
+@pytest.mark.parametrize(("first", "name", "clock_frames"), [
+    ("bottom", "interlaced.mp4", 0), ("top", "interlaced.mp4", 0),
+    ("bottom", "camcorder.m2t", 35)])  # an HDV camcorder's transport stream, from 1.4 s
+def test_an_interlaced_videos_fields_are_tracked_as_frames_of_their_own(tmp_path, first, name,
+                                                                        clock_frames):
     # An interlaced camcorder's frame holds two fields 20 ms apart. Read as stored, a
     # disc moving 4 px a field was found in 12 frames of 12, each 2 px off where it was
     # at the frame's time, with a σ of 0.15 px. Now each field is a frame at its time.
@@ -517,8 +521,8 @@ def test_an_interlaced_videos_fields_are_tracked_as_frames_of_their_own(tmp_path
 
     # Taken top field first but flagged bottom first, the fields came out in the wrong
     # order (x ±4 px by field): which came first is read from the pictures (idet).
-    path = tmp_path / "interlaced.mp4"
-    times = _interlaced_disc(path, first=first)
+    path = tmp_path / name
+    times = _interlaced_disc(path, first=first, clock_frames=clock_frames)
     source = open_frames(path)
     assert source.fields and source.nominal_fps == pytest.approx(50.0)
     assert any("interlaced" in p and "20 ms" in p for p in source.problems)
