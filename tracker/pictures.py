@@ -45,7 +45,12 @@ def read_picture(path: Path, bits: int = 8) -> NDArray[np.uint8] | None:
     """A picture file as 8-bit RGB (h, w, 3), its samples scaled from ``bits`` bits
     (:func:`sample_bits`) and rounded, a brighter one clipped (grey pictures as three
     equal channels, turned as their EXIF says). None where OpenCV cannot read it."""
-    raw = cv2.imread(str(path), PICTURE_FLAGS)
+    return picture_rgb(cv2.imread(str(path), PICTURE_FLAGS), bits)
+
+
+def picture_rgb(raw: NDArray | None, bits: int = 8) -> NDArray[np.uint8] | None:
+    """A picture as OpenCV read it with :data:`PICTURE_FLAGS` (BGR, 8 or 16 bits), as
+    :func:`read_picture` gives it; None for none, or for samples of another type."""
     if raw is None or raw.dtype not in (np.uint8, np.uint16):
         return None
     if raw.dtype == np.uint16:

@@ -114,7 +114,9 @@ def _unpacked(frame: av.VideoFrame) -> av.VideoFrame:
 
 
 def _rows(frame: av.VideoFrame, k: int, width: int, height: int) -> NDArray[np.uint8]:
-    """The first ``height`` rows of plane ``k`` of an 8-bit frame, ``width`` bytes each."""
+    """The first ``height`` rows of plane ``k`` of an 8-bit frame, ``width`` bytes each:
+    a packed or interleaved plane holds more bytes a row than :func:`plane_samples`
+    takes from its width in samples (YUYV two a pixel, NV12's chroma two a cell)."""
     plane = frame.planes[k]
     return np.frombuffer(plane, np.uint8).reshape(-1, plane.line_size)[:height, :width]
 

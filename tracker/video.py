@@ -35,6 +35,7 @@ from .pictures import (
     holds_colour,
     numbered_pictures,
     picture_channels,
+    picture_rgb,
     read_picture,
     sample_bits,
     sequence_of,
@@ -686,7 +687,7 @@ def _open_folder(p: Path, fps: float | None) -> FrameSource:
         raise CranktrackError(f"{images[0]} is not an image OpenCV can read")
     h, w = first.shape[:2]
     bits = sample_bits(first)
-    rgb = read_picture(images[0], bits)  # None for samples of another type (float)
+    rgb = picture_rgb(first, bits)  # None for samples of another type (float)
     source = FrameSource(p, "images", w, h, float(fps), len(images), "images",
                          sample_bits=bits, _images=images,
                          pixel_format="gray" if picture_channels(images[0]) in (1, 2)
