@@ -93,7 +93,8 @@ class Frame:
     matrix: int = 601
 
     @property
-    def _levels(self) -> tuple[float, ...]:
+    def levels(self) -> tuple[float, ...]:
+        """The YUV → RGB terms of its matrix and range (one of :data:`_LEVELS`)."""
         return _LEVELS[self.matrix, self.full_range]
 
     @property
@@ -107,7 +108,7 @@ class Frame:
         """The whole frame as RGB (h, w, 3)."""
         if self.layout == "i420":
             w, h = self.size
-            return _i420_to_rgb(*self._planes(), 0, 0, w, h, self._levels)
+            return _i420_to_rgb(*self.planes(), 0, 0, w, h, self.levels)
         return self.pixels
 
     @cached_property
@@ -119,7 +120,7 @@ class Frame:
         w, h = self.size
         step = 2 * max(1, round(0.5 * np.sqrt(w * h / LIGHT_SAMPLES)))  # even: whole cells
         if self.layout == "i420":
-            return _i420_light(*self._planes(), step, self._levels)
+            return _i420_light(*self.planes(), step, self.levels)
         sample = self.pixels[::step, ::step].reshape(-1, 3)
         return np.median(sample, axis=0).astype(np.float64)
 
@@ -134,7 +135,7 @@ class Frame:
         for (a, b, c, d), rgb in converted:
             if a <= x0 and b <= y0 and x1 <= c and y1 <= d:
                 return rgb[y0 - b:y1 - b, x0 - a:x1 - a].copy()
-        rgb = _i420_to_rgb(*self._planes(), x0, y0, x1, y1, self._levels)
+        rgb = _i420_to_rgb(*self.planes(), x0, y0, x1, y1, self.levels)
         converted.append(((x0, y0, x1, y1), rgb))
         return rgb.copy()
 
@@ -156,14 +157,15 @@ class Frame:
         if x0 % 2 or y0 % 2 or (x1 - x0) % 2 or (y1 - y0) % 4:
             raise ValueError("a 4:2:0 frame is cut at even columns and rows, with a height "
                              "that is a multiple of 4")
-        Y, U, V = self._planes()
+        Y, U, V = self.planes()
         u = U[y0 // 2:y1 // 2, x0 // 2:x1 // 2]
         v = V[y0 // 2:y1 // 2, x0 // 2:x1 // 2]
         planes = np.concatenate([Y[y0:y1, x0:x1].ravel(), u.ravel(), v.ravel()])
         return Frame(self.index, self.t_s, planes.reshape(-1, x1 - x0), self.layout,
                      self.full_chroma, self.full_range, self.matrix)
 
-    def _planes(self) -> tuple[NDArray, NDArray, NDArray]:
+    def planes(self) -> tuple[NDArray, NDArray, NDArray]:
+        """A 4:2:0 frame's Y, U and V planes (U and V at half size), as views."""
         w, h = self.size
         q = h // 4
         return (self.pixels[:h], self.pixels[h:h + q].reshape(h // 2, w // 2),
@@ -186,9 +188,9 @@ _LEVELS = {
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _yuv_to_rgb(y: int, u: int, v: int, levels: tuple) -> tuple[float, float, float]:
-    """One pixel's BT.601 Y, U, V codes → R, G, B (DN, unrounded, unclamped) in
-    ``levels`` (one of :data:`_LEVELS`)."""
+def yuv_to_rgb(y: float, u: int, v: int, levels: tuple) -> tuple[float, float, float]:
+    """One pixel's Y, U, V codes → R, G, B (DN, unrounded, unclamped) in ``levels`` (one
+    of :data:`_LEVELS`). ``y`` may be a mean of several pixels' (:mod:`.binned`)."""
     gain, black, rv, gu, gv, bu = levels
     luma = gain * (y - black)
     cb, cr = u - 128.0, v - 128.0
@@ -212,7 +214,7 @@ def _i420_to_rgb(Y: NDArray, U: NDArray, V: NDArray, x0: int, y0: int, x1: int, 
     out = np.empty((y1 - y0, x1 - x0, 3), np.uint8)
     for i in range(y0, y1):
         for j in range(x0, x1):
-            r, g, b = _yuv_to_rgb(Y[i, j], U[i // 2, j // 2], V[i // 2, j // 2], levels)
+            r, g, b = yuv_to_rgb(Y[i, j], U[i // 2, j // 2], V[i // 2, j // 2], levels)
             # Rounded by adding ½ and truncating the clamped value: 3.5× faster on a
             # whole 640×480 frame than round() (a whole frame for every full-frame
             # search), and the same bytes (a sum of these products is never exactly
@@ -235,7 +237,7 @@ def _i420_light(Y: NDArray, U: NDArray, V: NDArray, step: int, levels: tuple) ->
     n = 0
     for i in range(0, Y.shape[0], step):
         for j in range(0, Y.shape[1], step):
-            r[n], g[n], b[n] = _yuv_to_rgb(Y[i, j], U[i // 2, j // 2], V[i // 2, j // 2],
+            r[n], g[n], b[n] = yuv_to_rgb(Y[i, j], U[i // 2, j // 2], V[i // 2, j // 2],
                                            levels)
             n += 1
     out = np.empty(3)

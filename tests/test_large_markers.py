@@ -1,0 +1,95 @@
+"""Markers filmed close: fitted on the frame seen block by block (tracker/binned.py).
+
+The truth is a disc's exact coverage drawn by OpenCV 8× over and averaged down, coded to
+4:2:0 by PyAV (FFmpeg's swscale), as bench/large_markers.py draws it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import av
+import cv2
+import numpy as np
+import pytest
+
+from cranktrack.tracker import refine as refine_module
+from cranktrack.tracker.binned import BinnedFrame, from_bins, to_bins
+from cranktrack.tracker.refine import LARGE_RADIUS_PX, refine
+from cranktrack.tracker.video import Frame
+
+W, H, UP = 320, 240, 8
+RED = np.array([200.0, 40.0, 40.0])
+
+
+def _picture(x: float, y: float, radius: int, rng: np.random.Generator,
+             noise_dn: float = 2.0) -> np.ndarray:
+    """A red disc of ``radius`` px at (x, y) on grey, with ``noise_dn`` of noise (RGB)."""
+    big = np.zeros((H * UP, W * UP), np.uint8)
+    centre = (round(((x + 0.5) * UP - 0.5) * 64), round(((y + 0.5) * UP - 0.5) * 64))
+    cv2.circle(big, centre, radius * UP * 64, 255, -1, cv2.LINE_AA, 6)
+    m = cv2.resize(big.astype(np.float32) / 255.0, (W, H), interpolation=cv2.INTER_AREA)
+    img = 100.0 * (1 - m[..., None]) + RED * m[..., None] + rng.normal(0, noise_dn, (H, W, 3))
+    return np.clip(np.round(img), 0, 255).astype(np.uint8)
+
+
+def _i420(rgb: np.ndarray) -> Frame:
+    planes = av.VideoFrame.from_ndarray(rgb, format="rgb24").reformat(
+        format="yuv420p").to_ndarray()
+    return Frame(0, 0.0, planes, layout="i420", full_chroma=False)
+
+
+def test_blocks_are_the_frames_own_colour_where_their_pixels_share_it():
+    rng = np.random.default_rng(0)
+    planes = _i420(_picture(150.3, 120.6, 40, rng)).pixels.copy()
+    # Luma the same over each 2×2 block: a block is then exactly each of its pixels.
+    Y = planes[:H]
+    Y[:] = np.repeat(np.repeat(Y[::2, ::2], 2, axis=0), 2, axis=1)
+    frame = Frame(0, 0.0, planes, layout="i420", full_chroma=False)
+    blocks = BinnedFrame(frame).region(10, 20, 150, 110)
+    assert np.array_equal(blocks, frame.region(20, 40, 300, 220)[::2, ::2])
+    rgb = Frame(0, 0.0, _picture(150.3, 120.6, 40, rng))
+    expected = cv2.resize(rgb.pixels, (W // 2, H // 2), interpolation=cv2.INTER_AREA)
+    assert np.abs(BinnedFrame(rgb).region(0, 0, W // 2, H // 2).astype(int)
+                  - expected).max() <= 1
+    assert from_bins(to_bins(123.4)) == pytest.approx(123.4)
+
+
+@pytest.mark.parametrize("radius", [40, 60])
+def test_a_large_disc_is_found_block_by_block_as_well_as_pixel_by_pixel(radius, monkeypatch):
+    """Over 12 noisy frames, a disc of radius 40 or 60 px at sub-pixel places: the block fit
+    (taken, as its radius is over :data:`LARGE_RADIUS_PX`) lies within 0.05 px of where it
+    was drawn, as close as the pixel fit, and its σ is within a factor of 2.5 of the
+    scatter of its errors."""
+    assert radius >= LARGE_RADIUS_PX
+    rng = np.random.default_rng(radius)
+    errors = {"blocks": [], "pixels": []}
+    sigmas = []
+    taken = []
+    binned = refine_module._refine_binned
+
+    def spy(*args, **kwargs):
+        taken.append(True)
+        return binned(*args, **kwargs)
+
+    for k in range(12):
+        x, y = 160.0 + 0.37 * k, 118.0 + 0.23 * k
+        frame = _i420(_picture(x, y, radius, rng))
+        monkeypatch.setattr(refine_module, "_refine_binned", spy)
+        c, _ = refine(frame, (x + 1.2, y - 0.8), float(radius), wire=True)
+        assert c.ok
+        errors["blocks"].append((c.x - x, c.y - y))
+        sigmas.append(c.sigma)
+        assert c.radius == pytest.approx(radius, abs=1.5)
+        monkeypatch.setattr(refine_module, "LARGE_RADIUS_PX", math.inf)
+        p, _ = refine(frame, (x + 1.2, y - 0.8), float(radius), wire=True)
+        monkeypatch.undo()
+        errors["pixels"].append((p.x - x, p.y - y))
+    assert len(taken) == 12
+    blocks, pixels = np.array(errors["blocks"]), np.array(errors["pixels"])
+    rms = {k: math.sqrt(np.mean(np.sum(np.array(v) ** 2, axis=1))) for k, v in errors.items()}
+    assert rms["blocks"] < 0.05
+    assert rms["blocks"] < 1.3 * rms["pixels"] + 0.005
+    scatter = np.sqrt(np.mean(blocks.var(axis=0)))
+    assert 1 / 2.5 < np.median(sigmas) / scatter < 2.5
+    assert np.abs(blocks - pixels).max() < 0.05
