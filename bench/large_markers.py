@@ -6,7 +6,8 @@ and 2 DN of noise, at radius 15, 30 and 60 px: A slides (4 px a frame along x, 1
 along y), B goes round a 250 px circle once in 3 s (26 px a frame), C stands still.
 Each disc is its exact coverage, drawn by OpenCV 8× over and averaged down
 (``cv2.INTER_AREA``); the scene is coded by PyAV as H.264 4:2:0 (crf 18, as a phone
-stores it) and as lossless RGB (x264's RGB mode). The truth is where the discs were drawn; it
+stores it) and as lossless RGB (x264's RGB mode; a third as many frames, as it decodes
+slowly). The truth is where the discs were drawn; it
 shares no code with cranktrack.
 
 Per clip and marker it prints the frames found, the mean offset (x, y) and RMS distance
@@ -15,7 +16,12 @@ x and along y (each axis counted), and the median σ; then tracking time against
 decoding the same file to RGB (the fastest of ``--rounds`` runs of each, back to back).
 The truth is taken at each frame's number, not at the time the file stores.
 
-    .venv/bin/python bench/large_markers.py [--frames 90] [--rounds 3]
+With ``--wire`` a dark wire runs from B's centre to C's, in front of them, as the
+crank-slider's SMA wire runs: an eighth of the discs' radius wide, as the thesis's
+0.5 mm wire is on its 8 mm discs (a rig filmed closer shows a wider wire).
+
+    .venv/bin/python bench/large_markers.py [--frames 90] [--rounds 3] [--radii 15 30 60]
+        [--wire]
 
 The clips are made once into ``bench/.cache/large_markers``.
 """
@@ -43,6 +49,7 @@ from cranktrack.warmup import compile_kernels
 
 W, H, FPS = 1920, 1080, 30
 UP = 8  # each disc's coverage is drawn this many times larger, then averaged down
+WIRE_UP = 4  # ...and the wire's
 RADII = (15, 30, 60)
 COLOURS = {"A": (40, 190, 70), "B": (200, 40, 40), "C": (40, 70, 200)}
 #: name, encoder, pixel format, options, container.
@@ -75,23 +82,35 @@ def coverage(x: float, y: float, radius: int) -> tuple[np.ndarray, int, int]:
     return small, x0, y0
 
 
-def picture(t: float, radius: int, background: np.ndarray, rng: np.random.Generator
-            ) -> np.ndarray:
+def picture(t: float, radius: int, background: np.ndarray, rng: np.random.Generator,
+            wire: bool = False) -> np.ndarray:
     """The scene at time ``t`` (s): the discs of ``radius`` px over ``background`` (float
-    RGB), with 2 DN of noise, as 8-bit RGB."""
+    RGB), with 2 DN of noise, as 8-bit RGB; with ``wire``, a dark wire an eighth of their
+    radius wide in front of them from B's centre to C's, as the crank-slider's runs."""
     img = background.copy()
-    for name, (x, y) in drawn(t).items():
+    at = drawn(t)
+    for name, (x, y) in at.items():
         m, x0, y0 = coverage(x, y, radius)
         h, w = m.shape
         under = img[y0:y0 + h, x0:x0 + w]
         under[:] = under * (1 - m[..., None]) + np.array(COLOURS[name], float) * m[..., None]
+    if wire:
+        # Drawn WIRE_UP× over and averaged down, as wide as the thesis's 0.5 mm wire on
+        # its 8 mm discs: an eighth of their radius.
+        line = np.zeros((H * WIRE_UP, W * WIRE_UP), np.uint8)
+        ends = [tuple(round(((v + 0.5) * WIRE_UP - 0.5) * 16) for v in at[m]) for m in "BC"]
+        cv2.line(line, ends[0], ends[1], 255, max(1, round(radius / 8 * WIRE_UP)),
+                 cv2.LINE_AA, 4)
+        m = cv2.resize(line.astype(np.float32) / 255.0, (W, H),
+                       interpolation=cv2.INTER_AREA)[..., None]
+        img = img * (1 - m) + np.array([70.0, 70.0, 75.0]) * m
     img += rng.normal(0.0, 2.0, img.shape)
     return np.clip(np.round(img), 0, 255).astype(np.uint8)
 
 
 def write(path: Path, radius: int, encoder: str, layout: str, options: dict,
-          frames: int) -> None:
-    """One clip: ``frames`` frames at 30 fps of discs of ``radius`` px."""
+          frames: int, wire: bool) -> None:
+    """One clip: ``frames`` frames at 30 fps of discs of ``radius`` px (and the wire)."""
     yy, xx = np.mgrid[0:H, 0:W]
     # Uneven light: brighter to the left and top, as a lamp beside the rig.
     light = 0.85 + 0.3 * (1 - xx / W) * (1 - 0.5 * yy / H)
@@ -102,8 +121,8 @@ def write(path: Path, radius: int, encoder: str, layout: str, options: dict,
         s = out.add_stream(encoder, rate=FPS, options=options)
         s.width, s.height, s.pix_fmt = W, H, layout
         for k in range(frames):
-            frame = av.VideoFrame.from_ndarray(picture(k / FPS, radius, background, rng),
-                                               format="rgb24").reformat(format=layout)
+            rgb = picture(k / FPS, radius, background, rng, wire)
+            frame = av.VideoFrame.from_ndarray(rgb, format="rgb24").reformat(format=layout)
             frame.pts, frame.time_base = k, fractions.Fraction(1, FPS)
             out.mux(s.encode(frame))
         out.mux(s.encode())
@@ -114,16 +133,23 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--frames", type=int, default=90)
     ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--radii", type=int, nargs="+", default=list(RADII),
+                    help="disc radii, px (15 30 60)")
+    ap.add_argument("--wire", action="store_true",
+                    help="draw a dark wire from B to C, in front of them")
     args = ap.parse_args()
     print(f"libraries: {versions_line()}")
     compile_kernels()
     folder = CACHE / "large_markers"
     folder.mkdir(parents=True, exist_ok=True)
     for name, encoder, layout, options, container in CODINGS:
-        for radius in RADII:
-            path = folder / f"r{radius}_{encoder}_{args.frames}.{container}"
+        # Lossless RGB of a noisy scene decodes at a tenth of H.264's speed: a third as long.
+        frames = args.frames if layout == "yuv420p" else max(10, args.frames // 3)
+        for radius in args.radii:
+            wired = "_wire" if args.wire else ""
+            path = folder / f"r{radius}_{encoder}_{frames}{wired}.{container}"
             if not path.exists():
-                write(path, radius, encoder, layout, options, args.frames)
+                write(path, radius, encoder, layout, options, frames, args.wire)
             track(open_frames(path))  # first run: files and caches warm
             track_s, decode_s = [], []
             for _ in range(args.rounds):

@@ -16,7 +16,8 @@ import pytest
 from cranktrack.tracker import refine as refine_module
 from cranktrack.tracker.binned import BinnedFrame, from_bins, to_bins
 from cranktrack.tracker.refine import LARGE_RADIUS_PX, refine
-from cranktrack.tracker.video import Frame
+from cranktrack.tracker.track import track
+from cranktrack.tracker.video import Frame, open_frames
 
 W, H, UP = 320, 240, 8
 RED = np.array([200.0, 40.0, 40.0])
@@ -93,3 +94,46 @@ def test_a_large_disc_is_found_block_by_block_as_well_as_pixel_by_pixel(radius, 
     scatter = np.sqrt(np.mean(blocks.var(axis=0)))
     assert 1 / 2.5 < np.median(sigmas) / scatter < 2.5
     assert np.abs(blocks - pixels).max() < 0.05
+
+
+def test_a_wire_as_wide_as_a_close_up_makes_it_is_no_shading(tmp_path):
+    """The crank-slider filmed close: discs of radius 60 px with the wire from B's middle to
+    C's an eighth of that wide (the thesis's 0.5 mm on 8 mm discs), on H.264 4:2:0. Filled
+    7 px wide as for the thesis's bed, B's and C's middles still spread as a shaded ball's,
+    and they were found in no frame; now in every one, within 0.2 px of where drawn."""
+    size, radius = (640, 360), 60
+    drawn = {"A": (110.0, 180.0), "B": (300.3, 120.6), "C": (520.0, 240.0)}
+    colours = {"A": (40, 190, 70), "B": (200, 40, 40), "C": (40, 70, 200)}
+    path = tmp_path / "close.mp4"
+    rng = np.random.default_rng(3)
+    with av.open(str(path), "w") as out:
+        s = out.add_stream("libx264", rate=25, options={"crf": "18"})
+        s.width, s.height, s.pix_fmt = *size, "yuv420p"
+        for k in range(6):
+            at = dict(drawn, B=(drawn["B"][0] + 1.5 * k, drawn["B"][1] + 0.7 * k))
+            img = np.full((size[1], size[0], 3), 105.0)
+            for name, (x, y) in at.items():
+                big = np.zeros((size[1] * 4, size[0] * 4), np.uint8)
+                cv2.circle(big, (round(((x + 0.5) * 4 - 0.5) * 64),
+                                 round(((y + 0.5) * 4 - 0.5) * 64)), radius * 4 * 64, 255, -1,
+                           cv2.LINE_AA, 6)
+                m = cv2.resize(big.astype(np.float32) / 255, size, interpolation=cv2.INTER_AREA)
+                img = img * (1 - m[..., None]) + np.array(colours[name]) * m[..., None]
+            line = np.zeros((size[1] * 4, size[0] * 4), np.uint8)
+            ends = [tuple(round(((v + 0.5) * 4 - 0.5) * 16) for v in at[n]) for n in "BC"]
+            cv2.line(line, ends[0], ends[1], 255, round(radius / 8 * 4), cv2.LINE_AA, 4)
+            m = cv2.resize(line.astype(np.float32) / 255, size, interpolation=cv2.INTER_AREA)
+            img = img * (1 - m[..., None]) + np.array([70.0, 70.0, 75.0]) * m[..., None]
+            img = np.clip(np.round(img + rng.normal(0, 2.0, img.shape)), 0, 255).astype(np.uint8)
+            frame = av.VideoFrame.from_ndarray(img, format="rgb24").reformat(format="yuv420p")
+            frame.pts = k
+            out.mux(s.encode(frame))
+        out.mux(s.encode())
+    tab = track(open_frames(path)).tracks
+    for name in "ABC":
+        assert tab[f"{name}_ok"].all(), name
+        dx = tab[f"{name}_x_px"] - [drawn[name][0] + (1.5 * k if name == "B" else 0)
+                                    for k in tab["frame"]]
+        dy = tab[f"{name}_y_px"] - [drawn[name][1] + (0.7 * k if name == "B" else 0)
+                                    for k in tab["frame"]]
+        assert np.hypot(dx, dy).max() < 0.2, name

@@ -415,6 +415,13 @@ WIRE_FILL_PX = 7
 #: (bench/README.md, stop 50). In focus nothing changes.
 WIRE_FILL_PER_EDGE_PX = 4.0
 SHARP_EDGE_PX = 1.2
+#: ...and at least this fraction of the disc's radius: filmed close, the wire is as many
+#: px wide as the discs are large (the thesis's 0.5 mm wire on 8 mm discs is an eighth
+#: of their radius, before 4:2:0 chroma and the lens spread it). On 1080p H.264 with
+#: discs of radius 30 px and a wire 3 px wide from B to C (bench/large_markers.py
+#: --wire), B's middle filled 7 px wide still spread by 0.18-0.29, and B was refused
+#: as shaded in every frame.
+WIRE_FILL_PER_RADIUS = 0.25
 
 
 def _wire_fill_px(centre: Centre) -> int:
@@ -423,7 +430,7 @@ def _wire_fill_px(centre: Centre) -> int:
     if centre.params is None:
         return WIRE_FILL_PX
     extra = WIRE_FILL_PER_EDGE_PX * max(centre.params[3] - SHARP_EDGE_PX, 0.0)
-    return round(float(WIRE_FILL_PX + extra))
+    return round(max(float(WIRE_FILL_PX + extra), WIRE_FILL_PER_RADIUS * centre.radius))
 
 
 def _wire_band_px(centre: Centre) -> float:
