@@ -37,11 +37,12 @@ px per axis, the largest, its σ and the fraction within ±1σ), and θ's and ω
 error and ±1σ coverage against the truth, over the frames where they were measured.
 
 ``--no-wire`` draws the same bed without the wire, to tell its share of the error from
-the bar's and the codec's. ``--flicker F`` lights the bed by a lamp on the mains whose
-light swings by F either way at 100 Hz.
+the bar's and the codec's. ``--scale K`` films it K times closer (:func:`film_closer`).
+``--flicker F`` lights the bed by a lamp on the mains whose light swings by F either
+way at 100 Hz.
 
     .venv/bin/python bench/sma_bed_apart.py [--seeds 3] [--case N] [--keep DIR] [--no-wire]
-        [--lens-blur PX] [--noise DN] [--crf N] [--flicker F]
+        [--lens-blur PX] [--noise DN] [--crf N] [--flicker F] [--scale K]
 """
 
 from __future__ import annotations
@@ -77,7 +78,7 @@ MARKER_MM = 8.0
 WIRE_MM = 0.5
 CRANK_BAR_MM = 10.0
 SIZE = (960, 540)
-PX_PER_MM = 2.6
+PX_PER_MM = BED_PX_PER_MM = 2.6
 A_PX = (100.0, 300.0)
 
 #: Printed marker colours (RGB), as an inkjet gives them: not pure primaries.
@@ -113,6 +114,19 @@ class Heating:
         (up, up_rate), (down, down_rate) = step(t - self.on_s), step(t - self.off_s)
         d = self.theta1_deg - self.theta0_deg
         return self.theta0_deg + d * (up - down), np.radians(d * (up_rate - down_rate))
+
+
+def film_closer(k: float) -> None:
+    """Film the bed ``k`` times closer: the frame, its px/mm and the pivot's place ``k``
+    times larger (markers of 8 mm then ``k``·10.4 px in radius: 3.2 gives 33 px, as a
+    phone close to the rig or a 4K camera does). Drawn on a 2× grid from ``k`` = 2, for
+    memory. The drawing reads these as the script's constants, so they are set again
+    here, once, before anything is drawn."""
+    global SIZE, PX_PER_MM, A_PX, SUPERSAMPLE
+    SIZE = (2 * round(SIZE[0] * k / 2), 2 * round(SIZE[1] * k / 2))
+    PX_PER_MM, A_PX = PX_PER_MM * k, (A_PX[0] * k, A_PX[1] * k)
+    if k >= 2:
+        SUPERSAMPLE = 2
 
 
 def points_px(theta_deg: float) -> dict[str, NDArray]:
@@ -256,7 +270,8 @@ CASES = (
 def measure(case: Case, seed: int, folder: Path, seconds: float, fps: float,
             wire: bool = True, camera: Camera = Camera()) -> dict[str, float]:
     """Render, track with ``cranktrack`` (A–C = L1 as the known length), compare."""
-    tag = ("" if wire else "_nowire") + camera.tag()
+    tag = ("" if wire else "_nowire") + camera.tag() + (
+        f"_px{PX_PER_MM:g}" if PX_PER_MM != BED_PX_PER_MM else "")
     video = folder / f"sma_apart_{seed}{tag}.mp4"
     if not video.exists():
         # A render kept by --keep is used again: the writer is deterministic
@@ -324,11 +339,16 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--crf", type=int, default=20,
                         help="H.264's quality: 18 is near lossless, 28 a phone's, 35 poor "
                              "(default 20)")
+    parser.add_argument("--scale", type=float, default=1.0,
+                        help="film the bed this many times closer (frame, px/mm; 3.2 gives "
+                             "markers of 33 px radius in 3072×1728)")
     parser.add_argument("--flicker", type=float, default=0.0,
                         help="the lamp's light swings by this fraction either way at "
                              f"{2 * MAINS_HZ:g} Hz (default 0: a steady light)")
     args = parser.parse_args(argv)
     print(f"libraries: {versions_line()}")
+    if args.scale != 1.0:
+        film_closer(args.scale)
     cases = [CASES[i] for i in args.case] if args.case else list(CASES)
     camera = Camera(args.lens_blur, args.noise, args.crf, args.flicker)
     print(f"SMA bed, second renderer: {SIZE[0]}×{SIZE[1]}, {args.fps:g} fps, {args.seconds:g} s, "

@@ -137,3 +137,28 @@ def test_a_wire_as_wide_as_a_close_up_makes_it_is_no_shading(tmp_path):
         dy = tab[f"{name}_y_px"] - [drawn[name][1] + (0.7 * k if name == "B" else 0)
                                     for k in tab["frame"]]
         assert np.hypot(dx, dy).max() < 0.2, name
+
+
+def test_the_background_ring_stays_where_it_is_in_px(monkeypatch):
+    """A disc of radius 40 px at the rounded end of a bar 9 px wider than it each side
+    (the SMA bed's pivot on its crank bar, filmed close), on a yellowish board: the
+    coverage's background ring, 3-5 px past the rim, lies on the bar all round. Laid
+    3-5 blocks out (6-10 px) it took in the board beyond the bar's end, on one side only."""
+    rng = np.random.default_rng(5)
+    x, y, radius = 150.3, 120.6, 40
+    board, bar = np.array([196.0, 178.0, 150.0]), np.array([175.0, 178.0, 182.0])
+    big = np.zeros((H * UP, W * UP), np.uint8)
+    end = (round(((x + 0.5) * UP - 0.5) * 64), round(((y + 0.5) * UP - 0.5) * 64))
+    cv2.circle(big, end, (radius + 9) * UP * 64, 255, -1, cv2.LINE_AA, 6)
+    far = (round(((x + 200 + 0.5) * UP - 0.5) * 64), end[1])
+    cv2.line(big, end, far, 255, 2 * (radius + 9) * UP, cv2.LINE_AA, 6)
+    under = cv2.resize(big.astype(np.float32) / 255, (W, H), interpolation=cv2.INTER_AREA)
+    disc = np.zeros((H * UP, W * UP), np.uint8)
+    cv2.circle(disc, end, radius * UP * 64, 255, -1, cv2.LINE_AA, 6)
+    m = cv2.resize(disc.astype(np.float32) / 255, (W, H), interpolation=cv2.INTER_AREA)
+    img = board * (1 - under[..., None]) + bar * under[..., None]
+    img = img * (1 - m[..., None]) + RED * m[..., None] + rng.normal(0, 1.0, (H, W, 3))
+    frame = _i420(np.clip(np.round(img), 0, 255).astype(np.uint8))
+    c, _ = refine(frame, (x + 0.6, y - 0.4), float(radius), wire=True)
+    assert c.ok
+    assert math.hypot(c.x - x, c.y - y) < 0.025  # 0.058 px with the ring 6-10 px out

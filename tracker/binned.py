@@ -46,6 +46,11 @@ class BinnedFrame:
     layout: str = "binned"
 
     @property
+    def unit_px(self) -> float:
+        """How many of the frame's px one of its pixels spans."""
+        return 2.0
+
+    @property
     def size(self) -> tuple[int, int]:
         """(width, height) in blocks."""
         w, h = self.frame.size

@@ -37,8 +37,8 @@ def chroma(rgb: NDArray) -> NDArray[np.float32]:
 
 
 def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, float],
-                   radius: float, marker: NDArray | None = None, luminance: bool = False
-                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+                   radius: float, marker: NDArray | None = None, luminance: bool = False,
+                   unit_px: float = 1.0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Coverage α by unmixing chroma against a per-pixel background.
 
     Each pixel within ``radius + 2`` px of ``centre`` is unmixed as
@@ -55,6 +55,13 @@ def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float
     Returns ``(alpha, marker_chroma_seen)``: the second is the median chroma
     of the middle of the patch, for following slow colour drift.
     ``luminance`` unmixes brightness instead of chroma (a white or black marker).
+    ``unit_px`` is how many of the frame's px one of the patch's pixels spans (2 on a
+    frame seen block by block, :mod:`.binned`); ``radius`` and ``centre`` are in the
+    patch's pixels, and the background ring and the window's margin stay at their
+    distances in the frame's px. On the SMA bed filmed 3.2 times closer
+    (bench/sma_bed_apart.py --scale 3.2) the crank bar's rounded end reaches 8.6 px
+    past A's rim; a ring 6-10 px out took in the board beyond it, and A was 0.056 px
+    off, not 0.023.
     """
     known = marker is not None
     m = np.asarray(marker if known else (0.0, 0.0), np.float64)
@@ -63,7 +70,7 @@ def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float
     alpha, seen = _coverage_compiled(np.asarray(patch_rgb),
                                      LUMA_BASIS if luminance else _BASIS64,
                                      float(centre[0] - x0), float(centre[1] - y0),
-                                     float(radius), m, known)
+                                     float(radius), m, known, float(unit_px))
     return alpha, seen
 
 
@@ -82,8 +89,9 @@ def _bilinear(P: NDArray, x: float, y: float, out: NDArray) -> None:
 
 @njit(cache=True, nogil=True)
 def _coverage_compiled(rgb: NDArray, basis: NDArray, cx: float, cy: float, radius: float,
-                       marker: NDArray, known: bool) -> tuple[NDArray, NDArray]:
-    """:func:`local_coverage` on an RGB patch (h, w, 3), centre in patch px."""
+                       marker: NDArray, known: bool, unit: float) -> tuple[NDArray, NDArray]:
+    """:func:`local_coverage` on an RGB patch (h, w, 3), centre in patch px, each of which
+    spans ``unit`` frame px."""
     h, w = rgb.shape[0], rgb.shape[1]
     P = np.empty((h, w, 2))
     for i in range(h):
@@ -112,12 +120,12 @@ def _coverage_compiled(rgb: NDArray, basis: NDArray, cx: float, cy: float, radiu
         for j in range(w):
             dx, dy = j - cx, i - cy
             rho = math.sqrt(dx * dx + dy * dy) + 1e-6
-            if rho > radius + 2.0:
+            if rho > radius + 2.0 / unit:
                 continue
             ux, uy = dx / rho, dy / rho
             b[:] = 0.0
             for k in (3.0, 4.0, 5.0):
-                _bilinear(P, cx + (radius + k) * ux, cy + (radius + k) * uy, b)
+                _bilinear(P, cx + (radius + k / unit) * ux, cy + (radius + k / unit) * uy, b)
             b /= 3.0
             d0, d1 = m[0] - b[0], m[1] - b[1]
             denom = max(d0 * d0 + d1 * d1, 1e-6)

@@ -125,15 +125,17 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
         # Following a ball: its rim has a coverage of its own, so the disc fit's is
         # not made at all.
         return _rim(image, guess, radius, marker, luminance)
+    # A frame seen block by block (:mod:`.binned`) keeps the coverage's ring where it is in px.
+    unit = image.unit_px if isinstance(image, BinnedFrame) else 1.0
     patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
-    alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance)
+    alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance, unit)
     c = None
     if init is None:
         c = weighted_centroid(alpha, x0, y0, guess, radius, noise_alpha=0.05)
         if not c.ok:
             return c, seen
         guess = (c.x, c.y)
-        alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance)
+        alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance, unit)
     if rim is True:
         return _rim(image, guess, radius, marker, luminance)
     if edges is None:
@@ -162,7 +164,7 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
             break
         guess = (fit.x, fit.y)
         patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
-        alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance)
+        alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance, unit)
         if band is not None:
             band = _wire_band(alpha.shape, x0, y0, wire_line, init[3], radius)
             whole, alpha = alpha, np.where(band, np.nan, alpha)
@@ -175,7 +177,7 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
         fit, alpha, patch, x0, y0, radius = _soft_refit(image, fit, alpha, patch, x0, y0,
                                                         radius,
                                                         seen if marker is None else marker,
-                                                        luminance, tol)
+                                                        luminance, tol, unit)
     if band is not None and fit.ok:
         # The checks of a whole marker compare its visible area with its usual, which
         # counts the wire's band too (as for a line found across it, below).
@@ -408,7 +410,8 @@ def _rim(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, flo
 
 def _soft_refit(image: Frame | BinnedFrame | NDArray[np.uint8], fit: Centre, alpha: NDArray,
                 patch: NDArray, x0: int, y0: int, radius: float, marker: NDArray | None,
-                luminance: bool, tol: float) -> tuple[Centre, NDArray, NDArray, int, int, float]:
+                luminance: bool, tol: float, unit: float = 1.0
+                ) -> tuple[Centre, NDArray, NDArray, int, int, float]:
     """A soft-edged disc (out of focus) fitted again with its fading edge in the window.
 
     The coverage is laid out to ``radius`` + 2 px, against a background sampled just
@@ -418,14 +421,15 @@ def _soft_refit(image: Frame | BinnedFrame | NDArray[np.uint8], fit: Centre, alp
     of 12 to 29 px from one frame to the next, gains up to 14). Laid again to
     :data:`SOFT_REACH` edge widths past the fitted rim. Returns the fit, its coverage,
     patch, patch origin and window radius (px): as given where the disc is not soft.
+    ``unit``: the frame px one of ``image``'s spans (:func:`.coverage.local_coverage`).
     """
     r, s = fit.params[2], fit.params[3]
-    wide = r + SOFT_REACH * s - 2.0  # the coverage reaches 2 px past its window radius
+    wide = r + SOFT_REACH * s - 2.0 / unit  # the coverage reaches 2 px past its window
     if not (SOFT_EDGE_PX <= s <= radius / SOFT_PLATEAU and radius + 1.0 < wide
             < SOFT_MAX * radius):
         return fit, alpha, patch, x0, y0, radius
     patch_w, xw, yw = patch_around(image, fit.x, fit.y, wide + 9)
-    alpha_w, _ = local_coverage(patch_w, xw, yw, (fit.x, fit.y), wide, marker, luminance)
+    alpha_w, _ = local_coverage(patch_w, xw, yw, (fit.x, fit.y), wide, marker, luminance, unit)
     again = fit_disc(alpha_w, xw, yw, (fit.x, fit.y), wide, init=fit.params, tol_px=tol)
     if not again.ok:
         return fit, alpha, patch, x0, y0, radius
