@@ -32,8 +32,9 @@ def compile_kernels() -> list[str]:
     from .synthetic.scenarios import SpoolScenario
     from .synthetic.scene import RenderSettings, render_scene
     from .tracker.outline import fit_outline, rim_coverage
+    from .tracker.refine import LARGE_RADIUS_PX, refine
     from .tracker.track import track
-    from .tracker.video import open_frames
+    from .tracker.video import Frame, open_frames
 
     done = []
     with tempfile.TemporaryDirectory(prefix="cranktrack-warmup-") as tmp:
@@ -51,6 +52,17 @@ def compile_kernels() -> list[str]:
     alpha, _ = rim_coverage(ball + 20.0, 0.0, 0.0, (20.0, 20.0), 8.0)
     fit_outline(alpha, 0.0, 0.0, (20.0, 20.0), 8.0)
     done.append("rim of a ball")
+    # A marker filmed close is fitted block by block (tracker/binned.py): the blocks'
+    # conversion and the σ with neighbours' errors shared are kernels of their own.
+    import av
+
+    yy, xx = np.mgrid[0:120, 0:160]
+    big = LARGE_RADIUS_PX + 2.0
+    disc = (np.hypot(xx - 80.3, yy - 60.6) < big)[..., None] * np.array([110, -50, -50]) + 90
+    planes = av.VideoFrame.from_ndarray(disc.astype(np.uint8), format="rgb24").reformat(
+        format="yuv420p").to_ndarray()
+    refine(Frame(0, 0.0, planes, "i420", full_chroma=False), (80.0, 60.0), big, wire=True)
+    done.append("a marker filmed close")
     t = np.linspace(0.0, 1.0, 11)
     free_response(CrankDynamics(coulomb=0.1), t, 0.3)
     done.append("free response")

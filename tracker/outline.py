@@ -43,8 +43,8 @@ MIN_FRACTION = 0.4
 
 
 def rim_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, float],
-                 radius: float, marker: NDArray | None = None, luminance: bool = False
-                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+                 radius: float, marker: NDArray | None = None, luminance: bool = False,
+                 unit_px: float = 1.0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Coverage of a patch by the marker's colour against one background: the median
     colour on the ring ``radius`` + 3…5 px from ``centre`` (image px).
 
@@ -57,25 +57,29 @@ def rim_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, 
     middle 0.6·``radius``. Every pixel of the patch gets a value. Returns
     ``(alpha, seen)``: ``seen`` is that median of the middle (as
     :func:`.coverage.local_coverage` gives it), for following slow colour drift.
+    ``unit_px``: the frame px one of the patch's pixels spans, as for
+    :func:`.coverage.local_coverage` (the ring stays 3…5 frame px out).
     """
     basis = LUMA_BASIS if luminance else CHROMA_BASIS.astype(np.float64)
     given = np.empty(0) if marker is None else np.asarray(marker, np.float64)
     return _rim_coverage(np.ascontiguousarray(patch_rgb, np.float64), basis,
-                         centre[0] - x0, centre[1] - y0, float(radius), given)
+                         centre[0] - x0, centre[1] - y0, float(radius), given,
+                         float(unit_px))
 
 
 @njit(cache=True, nogil=True)
 def _rim_coverage(patch: NDArray, basis: NDArray, cx: float, cy: float, radius: float,
-                  marker: NDArray) -> tuple[NDArray, NDArray]:
-    """:func:`rim_coverage` on a patch (centre in patch px; ``marker`` empty when not
-    known). Compiled: in NumPy its many small steps cost a third of a large ball's
-    rim fit."""
+                  marker: NDArray, unit: float) -> tuple[NDArray, NDArray]:
+    """:func:`rim_coverage` on a patch (centre in patch px, each ``unit`` frame px;
+    ``marker`` empty when not known). Compiled: in NumPy its many small steps cost a
+    third of a large ball's rim fit."""
     h, w = patch.shape[0], patch.shape[1]
     k = basis.shape[0]
     P = np.empty((h, w, k))
     ring_n = 0
     middle_n = 0
-    inner2, outer2, mid2 = (radius + 3) ** 2, (radius + 5) ** 2, (0.6 * radius) ** 2
+    inner2, outer2 = (radius + 3 / unit) ** 2, (radius + 5 / unit) ** 2
+    mid2 = (0.6 * radius) ** 2
     for i in range(h):
         for j in range(w):
             for c in range(k):

@@ -399,7 +399,9 @@ def _rim(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, flo
     seen = None
     for _ in range(4):
         patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
-        alpha, seen_here = rim_coverage(patch, x0, y0, guess, radius, marker, luminance)
+        alpha, seen_here = rim_coverage(patch, x0, y0, guess, radius, marker, luminance,
+                                        image.unit_px if isinstance(image, BinnedFrame)
+                                        else 1.0)
         seen = seen_here if seen is None else seen
         fit = fit_outline(alpha, x0, y0, guess, radius)
         if not fit.ok or np.hypot(fit.x - guess[0], fit.y - guess[1]) <= RIM_RECENTRE_PX:
