@@ -8,8 +8,9 @@ whose one colour its four pixels share, so a marker found by its colour, seen bl
 block, loses nothing but the rounding of its pixels. :func:`.refine.refine` fits such
 markers here and maps the result back (:func:`to_bins`, :func:`from_bins`). Not where
 every pixel has its own colour, nor for a white or black marker (its luminance is per
-pixel): on lossless RGB a disc of radius 60 px fitted block by block was 0.007 px off in
-x and y, against 0.000 fitted pixel by pixel with its luminance edge.
+pixel): on lossless RGB discs of radius 60 px fitted block by block were 0.007 px off
+in x and y (0.008-0.010 px RMS), against 0.002 px RMS fitted pixel by pixel with their
+luminance edge.
 """
 
 from __future__ import annotations

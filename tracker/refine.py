@@ -69,7 +69,7 @@ SOFT_MAX = 3.0
 #: share their colour (4:2:0, 4:2:2, JPEG) is fitted on the frame seen block by block
 #: (:mod:`.binned`, :func:`_refine_binned`). In 1080p H.264 (bench/large_markers.py)
 #: discs of radius 30 px were followed at decoding speed, 60 px at half of it; seen
-#: block by block, 60 px at 0.95 of it, with errors 0.025-0.030 px RMS against
+#: block by block, 60 px at 0.88 of it, with errors 0.025-0.030 px RMS against
 #: 0.028-0.031 pixel by pixel.
 LARGE_RADIUS_PX = 32.0
 
