@@ -15,8 +15,9 @@ import pytest
 
 from cranktrack.tracker import refine as refine_module
 from cranktrack.tracker.binned import BinnedFrame, from_bins, to_bins
+from cranktrack.tracker.markers import parse_markers
 from cranktrack.tracker.refine import LARGE_RADIUS_PX, refine
-from cranktrack.tracker.track import track
+from cranktrack.tracker.track import locate, track
 from cranktrack.tracker.video import Frame, open_frames
 
 W, H, UP = 320, 240, 8
@@ -185,3 +186,20 @@ def test_a_large_shaded_ball_is_centred_by_its_rim_block_by_block(monkeypatch):
     # Here 0.11 px off on the blocks, 0.11 on the pixels, in other directions.
     assert math.hypot(c.x - x, c.y - y) < 0.15
     assert math.hypot(p.x - x, p.y - y) < 0.15
+
+
+@pytest.mark.parametrize("radius", [40, 60, 100])
+def test_a_white_ball_filmed_close_is_found(radius):
+    """A white disc 80, 120 or 200 px across on uneven grey: wider than the disc its
+    surroundings are taken over on the frame halved (62 px), it was found in no frame."""
+    w, h = 640, 520
+    x, y = 320.4, 260.7
+    yy, xx = (np.mgrid[0:h * 4, 0:w * 4] + 0.5) / 4 - 0.5
+    inside = np.hypot(xx - x, yy - y) < radius
+    grey = 90.0 + 20.0 * xx / w
+    img = np.where(inside, 235.0, grey).reshape(h, 4, w, 4).mean((1, 3))
+    img = img + np.random.default_rng(radius).normal(0, 1.5, img.shape)
+    rgb = np.repeat(np.clip(np.round(img), 0, 255).astype(np.uint8)[..., None], 3, axis=2)
+    found = locate(rgb, parse_markers([f"ball=white@{x:.0f},{y:.0f}"])).set_index("marker")
+    assert found.at["ball", "status"] == "ok"
+    assert math.hypot(found.at["ball", "x_px"] - x, found.at["ball", "y_px"] - y) < 0.05
