@@ -18,10 +18,11 @@ The truth is taken at each frame's number, not at the time the file stores.
 
 With ``--wire`` a dark wire runs from B's centre to C's, in front of them, as the
 crank-slider's SMA wire runs: an eighth of the discs' radius wide, as the thesis's
-0.5 mm wire is on its 8 mm discs (a rig filmed closer shows a wider wire).
+0.5 mm wire is on its 8 mm discs (a rig filmed closer shows a wider wire). With
+``--white`` the discs are white, and tracked as white markers named A, B and C.
 
     .venv/bin/python bench/large_markers.py [--frames 90] [--rounds 3] [--radii 15 30 60]
-        [--wire]
+        [--wire] [--white]
 
 The clips are made once into ``bench/.cache/large_markers``.
 """
@@ -43,6 +44,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import CACHE, decode_only
 
 from cranktrack.environment import versions_line
+from cranktrack.tracker.markers import DEFAULT_MARKERS, parse_markers
 from cranktrack.tracker.track import track
 from cranktrack.tracker.video import open_frames
 from cranktrack.warmup import compile_kernels
@@ -52,6 +54,7 @@ UP = 8  # each disc's coverage is drawn this many times larger, then averaged do
 WIRE_UP = 4  # ...and the wire's
 RADII = (15, 30, 60)
 COLOURS = {"A": (40, 190, 70), "B": (200, 40, 40), "C": (40, 70, 200)}
+WHITE = (235, 235, 235)
 #: name, encoder, pixel format, options, container.
 CODINGS = [("H.264 4:2:0 crf 18", "libx264", "yuv420p", {"crf": "18", "preset": "fast"}, "mp4"),
            ("H.264 RGB (lossless)", "libx264rgb", "bgr24", {"crf": "0", "preset": "fast"},
@@ -83,17 +86,19 @@ def coverage(x: float, y: float, radius: int) -> tuple[np.ndarray, int, int]:
 
 
 def picture(t: float, radius: int, background: np.ndarray, rng: np.random.Generator,
-            wire: bool = False) -> np.ndarray:
+            wire: bool = False, colours: dict | None = None) -> np.ndarray:
     """The scene at time ``t`` (s): the discs of ``radius`` px over ``background`` (float
     RGB), with 2 DN of noise, as 8-bit RGB; with ``wire``, a dark wire an eighth of their
-    radius wide in front of them from B's centre to C's, as the crank-slider's runs."""
+    radius wide in front of them from B's centre to C's, as the crank-slider's runs.
+    ``colours``: each disc's RGB (:data:`COLOURS` by default)."""
+    colours = colours or COLOURS
     img = background.copy()
     at = drawn(t)
     for name, (x, y) in at.items():
         m, x0, y0 = coverage(x, y, radius)
         h, w = m.shape
         under = img[y0:y0 + h, x0:x0 + w]
-        under[:] = under * (1 - m[..., None]) + np.array(COLOURS[name], float) * m[..., None]
+        under[:] = under * (1 - m[..., None]) + np.array(colours[name], float) * m[..., None]
     if wire:
         # Drawn WIRE_UP× over and averaged down, as wide as the thesis's 0.5 mm wire on
         # its 8 mm discs: an eighth of their radius.
@@ -109,8 +114,9 @@ def picture(t: float, radius: int, background: np.ndarray, rng: np.random.Genera
 
 
 def write(path: Path, radius: int, encoder: str, layout: str, options: dict,
-          frames: int, wire: bool) -> None:
-    """One clip: ``frames`` frames at 30 fps of discs of ``radius`` px (and the wire)."""
+          frames: int, wire: bool, colours: dict) -> None:
+    """One clip: ``frames`` frames at 30 fps of discs of ``radius`` px in ``colours`` (and
+    the wire)."""
     yy, xx = np.mgrid[0:H, 0:W]
     # Uneven light: brighter to the left and top, as a lamp beside the rig.
     light = 0.85 + 0.3 * (1 - xx / W) * (1 - 0.5 * yy / H)
@@ -121,7 +127,7 @@ def write(path: Path, radius: int, encoder: str, layout: str, options: dict,
         s = out.add_stream(encoder, rate=FPS, options=options)
         s.width, s.height, s.pix_fmt = W, H, layout
         for k in range(frames):
-            rgb = picture(k / FPS, radius, background, rng, wire)
+            rgb = picture(k / FPS, radius, background, rng, wire, colours)
             frame = av.VideoFrame.from_ndarray(rgb, format="rgb24").reformat(format=layout)
             frame.pts, frame.time_base = k, fractions.Fraction(1, FPS)
             out.mux(s.encode(frame))
@@ -137,7 +143,13 @@ def main() -> None:
                     help="disc radii, px (15 30 60)")
     ap.add_argument("--wire", action="store_true",
                     help="draw a dark wire from B to C, in front of them")
+    ap.add_argument("--white", action="store_true",
+                    help="white discs, tracked as A=white@…, B=white@…, C=white@…")
     args = ap.parse_args()
+    colours = {m: WHITE for m in COLOURS} if args.white else COLOURS
+    at = drawn(0.0)
+    specs = (parse_markers([f"{m}=white@{at[m][0]:.0f},{at[m][1]:.0f}" for m in COLOURS])
+             if args.white else DEFAULT_MARKERS)
     print(f"libraries: {versions_line()}")
     compile_kernels()
     folder = CACHE / "large_markers"
@@ -146,15 +158,15 @@ def main() -> None:
         # Lossless RGB of a noisy scene decodes at a tenth of H.264's speed: a third as long.
         frames = args.frames if layout == "yuv420p" else max(10, args.frames // 3)
         for radius in args.radii:
-            wired = "_wire" if args.wire else ""
+            wired = ("_wire" if args.wire else "") + ("_white" if args.white else "")
             path = folder / f"r{radius}_{encoder}_{frames}{wired}.{container}"
             if not path.exists():
-                write(path, radius, encoder, layout, options, frames, args.wire)
-            track(open_frames(path))  # first run: files and caches warm
+                write(path, radius, encoder, layout, options, frames, args.wire, colours)
+            track(open_frames(path), specs)  # first run: files and caches warm
             track_s, decode_s = [], []
             for _ in range(args.rounds):
                 t0 = time.perf_counter()
-                tab = track(open_frames(path)).tracks
+                tab = track(open_frames(path), specs).tracks
                 track_s.append(time.perf_counter() - t0)
                 decode_s.append(decode_only(path)[1])
             print(f"\n{name}, radius {radius} px: tracking {min(track_s):.2f} s, decoding "
