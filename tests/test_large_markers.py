@@ -24,13 +24,31 @@ W, H, UP = 320, 240, 8
 RED = np.array([200.0, 40.0, 40.0])
 
 
+def _fine(v: float, up: int, bits: int = 6) -> int:
+    """Pixel coordinate ``v`` (px) on a grid ``up`` times finer, in OpenCV's fixed point
+    with ``bits`` bits of fraction (pixel k spans k ± ½, so its centre is (k + ½)·up − ½)."""
+    return round(((v + 0.5) * up - 0.5) * 2**bits)
+
+
+def _averaged(big: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """A 0/255 drawing on a finer grid as the fraction of each pixel it covers, at
+    ``size`` (w, h)."""
+    return cv2.resize(big.astype(np.float32) / 255, size, interpolation=cv2.INTER_AREA)
+
+
+def _disc(size: tuple[int, int], x: float, y: float, radius: int, up: int = UP
+          ) -> np.ndarray:
+    """The fraction of each pixel of a picture ``size`` (w, h) that a disc of ``radius`` px
+    at (x, y) covers, drawn by OpenCV ``up`` times over and averaged down."""
+    big = np.zeros((size[1] * up, size[0] * up), np.uint8)
+    cv2.circle(big, (_fine(x, up), _fine(y, up)), radius * up * 64, 255, -1, cv2.LINE_AA, 6)
+    return _averaged(big, size)
+
+
 def _picture(x: float, y: float, radius: int, rng: np.random.Generator,
              noise_dn: float = 2.0) -> np.ndarray:
     """A red disc of ``radius`` px at (x, y) on grey, with ``noise_dn`` of noise (RGB)."""
-    big = np.zeros((H * UP, W * UP), np.uint8)
-    centre = (round(((x + 0.5) * UP - 0.5) * 64), round(((y + 0.5) * UP - 0.5) * 64))
-    cv2.circle(big, centre, radius * UP * 64, 255, -1, cv2.LINE_AA, 6)
-    m = cv2.resize(big.astype(np.float32) / 255.0, (W, H), interpolation=cv2.INTER_AREA)
+    m = _disc((W, H), x, y, radius)
     img = 100.0 * (1 - m[..., None]) + RED * m[..., None] + rng.normal(0, noise_dn, (H, W, 3))
     return np.clip(np.round(img), 0, 255).astype(np.uint8)
 
@@ -114,16 +132,12 @@ def test_a_wire_as_wide_as_a_close_up_makes_it_is_no_shading(tmp_path):
             at = dict(drawn, B=(drawn["B"][0] + 1.5 * k, drawn["B"][1] + 0.7 * k))
             img = np.full((size[1], size[0], 3), 105.0)
             for name, (x, y) in at.items():
-                big = np.zeros((size[1] * 4, size[0] * 4), np.uint8)
-                cv2.circle(big, (round(((x + 0.5) * 4 - 0.5) * 64),
-                                 round(((y + 0.5) * 4 - 0.5) * 64)), radius * 4 * 64, 255, -1,
-                           cv2.LINE_AA, 6)
-                m = cv2.resize(big.astype(np.float32) / 255, size, interpolation=cv2.INTER_AREA)
+                m = _disc(size, x, y, radius, up=4)
                 img = img * (1 - m[..., None]) + np.array(colours[name]) * m[..., None]
             line = np.zeros((size[1] * 4, size[0] * 4), np.uint8)
-            ends = [tuple(round(((v + 0.5) * 4 - 0.5) * 16) for v in at[n]) for n in "BC"]
+            ends = [tuple(_fine(v, 4, bits=4) for v in at[n]) for n in "BC"]
             cv2.line(line, ends[0], ends[1], 255, round(radius / 8 * 4), cv2.LINE_AA, 4)
-            m = cv2.resize(line.astype(np.float32) / 255, size, interpolation=cv2.INTER_AREA)
+            m = _averaged(line, size)
             img = img * (1 - m[..., None]) + np.array([70.0, 70.0, 75.0]) * m[..., None]
             img = np.clip(np.round(img + rng.normal(0, 2.0, img.shape)), 0, 255).astype(np.uint8)
             frame = av.VideoFrame.from_ndarray(img, format="rgb24").reformat(format="yuv420p")
@@ -140,7 +154,7 @@ def test_a_wire_as_wide_as_a_close_up_makes_it_is_no_shading(tmp_path):
         assert np.hypot(dx, dy).max() < 0.2, name
 
 
-def test_the_background_ring_stays_where_it_is_in_px(monkeypatch):
+def test_the_background_ring_stays_where_it_is_in_px():
     """A disc of radius 40 px at the rounded end of a bar 9 px wider than it each side
     (the SMA bed's pivot on its crank bar, filmed close), on a yellowish board: the
     coverage's background ring, 3-5 px past the rim, lies on the bar all round. Laid
@@ -149,14 +163,11 @@ def test_the_background_ring_stays_where_it_is_in_px(monkeypatch):
     x, y, radius = 150.3, 120.6, 40
     board, bar = np.array([196.0, 178.0, 150.0]), np.array([175.0, 178.0, 182.0])
     big = np.zeros((H * UP, W * UP), np.uint8)
-    end = (round(((x + 0.5) * UP - 0.5) * 64), round(((y + 0.5) * UP - 0.5) * 64))
+    end = (_fine(x, UP), _fine(y, UP))
     cv2.circle(big, end, (radius + 9) * UP * 64, 255, -1, cv2.LINE_AA, 6)
-    far = (round(((x + 200 + 0.5) * UP - 0.5) * 64), end[1])
-    cv2.line(big, end, far, 255, 2 * (radius + 9) * UP, cv2.LINE_AA, 6)
-    under = cv2.resize(big.astype(np.float32) / 255, (W, H), interpolation=cv2.INTER_AREA)
-    disc = np.zeros((H * UP, W * UP), np.uint8)
-    cv2.circle(disc, end, radius * UP * 64, 255, -1, cv2.LINE_AA, 6)
-    m = cv2.resize(disc.astype(np.float32) / 255, (W, H), interpolation=cv2.INTER_AREA)
+    cv2.line(big, end, (_fine(x + 200, UP), end[1]), 255, 2 * (radius + 9) * UP, cv2.LINE_AA, 6)
+    under = _averaged(big, (W, H))
+    m = _disc((W, H), x, y, radius)
     img = board * (1 - under[..., None]) + bar * under[..., None]
     img = img * (1 - m[..., None]) + RED * m[..., None] + rng.normal(0, 1.0, (H, W, 3))
     frame = _i420(np.clip(np.round(img), 0, 255).astype(np.uint8))
