@@ -19,10 +19,12 @@ The truth is taken at each frame's number, not at the time the file stores.
 With ``--wire`` a dark wire runs from B's centre to C's, in front of them, as the
 crank-slider's SMA wire runs: an eighth of the discs' radius wide, as the thesis's
 0.5 mm wire is on its 8 mm discs (a rig filmed closer shows a wider wire). With
-``--white`` the discs are white, and tracked as white markers named A, B and C.
+``--white`` the discs are white, and tracked as white markers named A, B and C. With
+``--nearer F`` the discs grow steadily from the radius given to F times it over the
+clip, as a rig does that comes nearer the camera (or a hand-held phone moved in).
 
     .venv/bin/python bench/large_markers.py [--frames 90] [--rounds 3] [--radii 15 30 60]
-        [--wire] [--white]
+        [--wire] [--white] [--nearer 1.45]
 
 The clips are made once into ``bench/.cache/large_markers``.
 """
@@ -70,22 +72,22 @@ def drawn(t: float) -> dict[str, tuple[float, float]]:
             "C": (1650.0, 250.0)}
 
 
-def coverage(x: float, y: float, radius: int) -> tuple[np.ndarray, int, int]:
+def coverage(x: float, y: float, radius: float) -> tuple[np.ndarray, int, int]:
     """The fraction of each pixel a disc of ``radius`` px at (x, y) covers, over the
     patch it lies in, and the patch's top-left pixel."""
-    half = radius + 4
+    half = math.ceil(radius) + 4
     x0, y0 = math.floor(x) - half, math.floor(y) - half
     size = 2 * half + 2
     big = np.zeros((size * UP, size * UP), np.uint8)
     # Pixel (i, j) spans [j − ½, j + ½]: at UP× its centre is at (j + ½)·UP − ½.
     centre = [round((((v - o) + 0.5) * UP - 0.5) * 64) for v, o in ((x, x0), (y, y0))]
-    cv2.circle(big, tuple(centre), radius * UP * 64, 255, -1, cv2.LINE_AA, 6)
+    cv2.circle(big, tuple(centre), round(radius * UP * 64), 255, -1, cv2.LINE_AA, 6)
     small = cv2.resize(big.astype(np.float32) / 255.0, (size, size),
                        interpolation=cv2.INTER_AREA)
     return small, x0, y0
 
 
-def picture(t: float, radius: int, background: np.ndarray, rng: np.random.Generator,
+def picture(t: float, radius: float, background: np.ndarray, rng: np.random.Generator,
             wire: bool = False, colours: dict | None = None) -> np.ndarray:
     """The scene at time ``t`` (s): the discs of ``radius`` px over ``background`` (float
     RGB), with 2 DN of noise, as 8-bit RGB; with ``wire``, a dark wire an eighth of their
@@ -113,10 +115,16 @@ def picture(t: float, radius: int, background: np.ndarray, rng: np.random.Genera
     return np.clip(np.round(img), 0, 255).astype(np.uint8)
 
 
+def radius_at(k: int, radius: int, frames: int, nearer: float) -> float:
+    """The discs' radius in frame ``k`` (px): ``radius`` growing steadily to ``nearer``
+    times it in the last of ``frames``."""
+    return radius * (1.0 + (nearer - 1.0) * k / max(frames - 1, 1))
+
+
 def write(path: Path, radius: int, encoder: str, layout: str, options: dict,
-          frames: int, wire: bool, colours: dict) -> None:
+          frames: int, wire: bool, colours: dict, nearer: float = 1.0) -> None:
     """One clip: ``frames`` frames at 30 fps of discs of ``radius`` px in ``colours`` (and
-    the wire)."""
+    the wire), growing to ``nearer`` times that radius."""
     yy, xx = np.mgrid[0:H, 0:W]
     # Uneven light: brighter to the left and top, as a lamp beside the rig.
     light = 0.85 + 0.3 * (1 - xx / W) * (1 - 0.5 * yy / H)
@@ -127,7 +135,8 @@ def write(path: Path, radius: int, encoder: str, layout: str, options: dict,
         s = out.add_stream(encoder, rate=FPS, options=options)
         s.width, s.height, s.pix_fmt = W, H, layout
         for k in range(frames):
-            rgb = picture(k / FPS, radius, background, rng, wire, colours)
+            rgb = picture(k / FPS, radius_at(k, radius, frames, nearer), background, rng,
+                          wire, colours)
             frame = av.VideoFrame.from_ndarray(rgb, format="rgb24").reformat(format=layout)
             frame.pts, frame.time_base = k, fractions.Fraction(1, FPS)
             out.mux(s.encode(frame))
@@ -145,6 +154,8 @@ def main() -> None:
                     help="draw a dark wire from B to C, in front of them")
     ap.add_argument("--white", action="store_true",
                     help="white discs, tracked as A=white@…, B=white@…, C=white@…")
+    ap.add_argument("--nearer", type=float, default=1.0,
+                    help="the discs grow to this many times their radius over the clip")
     args = ap.parse_args()
     colours = {m: WHITE for m in COLOURS} if args.white else COLOURS
     at = drawn(0.0)
@@ -158,10 +169,12 @@ def main() -> None:
         # Lossless RGB of a noisy scene decodes at a tenth of H.264's speed: a third as long.
         frames = args.frames if layout == "yuv420p" else max(10, args.frames // 3)
         for radius in args.radii:
-            wired = ("_wire" if args.wire else "") + ("_white" if args.white else "")
+            wired = ("_wire" if args.wire else "") + ("_white" if args.white else "") \
+                + (f"_nearer{args.nearer:g}" if args.nearer != 1.0 else "")
             path = folder / f"r{radius}_{encoder}_{frames}{wired}.{container}"
             if not path.exists():
-                write(path, radius, encoder, layout, options, frames, args.wire, colours)
+                write(path, radius, encoder, layout, options, frames, args.wire, colours,
+                      args.nearer)
             track(open_frames(path), specs)  # first run: files and caches warm
             track_s, decode_s = [], []
             for _ in range(args.rounds):
@@ -169,7 +182,9 @@ def main() -> None:
                 tab = track(open_frames(path), specs).tracks
                 track_s.append(time.perf_counter() - t0)
                 decode_s.append(decode_only(path)[1])
-            print(f"\n{name}, radius {radius} px: tracking {min(track_s):.2f} s, decoding "
+            grows = (f" → {radius_at(frames - 1, radius, frames, args.nearer):.1f} px"
+                     if args.nearer != 1.0 else "")
+            print(f"\n{name}, radius {radius} px{grows}: tracking {min(track_s):.2f} s, decoding "
                   f"{min(decode_s):.2f} s, ratio decode/track {min(decode_s) / min(track_s):.2f}")
             for m in COLOURS:
                 ok = tab[f"{m}_ok"].to_numpy(bool)

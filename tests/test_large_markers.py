@@ -36,12 +36,13 @@ def _averaged(big: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     return cv2.resize(big.astype(np.float32) / 255, size, interpolation=cv2.INTER_AREA)
 
 
-def _disc(size: tuple[int, int], x: float, y: float, radius: int, up: int = UP
+def _disc(size: tuple[int, int], x: float, y: float, radius: float, up: int = UP
           ) -> np.ndarray:
     """The fraction of each pixel of a picture ``size`` (w, h) that a disc of ``radius`` px
     at (x, y) covers, drawn by OpenCV ``up`` times over and averaged down."""
     big = np.zeros((size[1] * up, size[0] * up), np.uint8)
-    cv2.circle(big, (_fine(x, up), _fine(y, up)), radius * up * 64, 255, -1, cv2.LINE_AA, 6)
+    cv2.circle(big, (_fine(x, up), _fine(y, up)), round(radius * up * 64), 255, -1,
+               cv2.LINE_AA, 6)
     return _averaged(big, size)
 
 
@@ -51,6 +52,30 @@ def _picture(x: float, y: float, radius: int, rng: np.random.Generator,
     m = _disc((W, H), x, y, radius)
     img = 100.0 * (1 - m[..., None]) + RED * m[..., None] + rng.normal(0, noise_dn, (H, W, 3))
     return np.clip(np.round(img), 0, 255).astype(np.uint8)
+
+
+def _discs(size: tuple[int, int], at: dict[str, tuple[float, float]], radius: float
+           ) -> np.ndarray:
+    """The crank-slider's green A, red B and blue C, discs of ``radius`` px at ``at``
+    (px), on grey, drawn 4× over (float RGB, no noise)."""
+    colours = {"A": (40, 190, 70), "B": (200, 40, 40), "C": (40, 70, 200)}
+    img = np.full((size[1], size[0], 3), 105.0)
+    for name, (x, y) in at.items():
+        m = _disc(size, x, y, radius, up=4)
+        img = img * (1 - m[..., None]) + np.array(colours[name]) * m[..., None]
+    return img
+
+
+def _h264(path, size: tuple[int, int], rate: int, pictures: list[np.ndarray]) -> None:
+    """``pictures`` (8-bit RGB) coded as H.264 4:2:0, crf 18, to ``path``."""
+    with av.open(str(path), "w") as out:
+        s = out.add_stream("libx264", rate=rate, options={"crf": "18"})
+        s.width, s.height, s.pix_fmt = *size, "yuv420p"
+        for k, img in enumerate(pictures):
+            frame = av.VideoFrame.from_ndarray(img, format="rgb24").reformat(format="yuv420p")
+            frame.pts = k
+            out.mux(s.encode(frame))
+        out.mux(s.encode())
 
 
 def _i420(rgb: np.ndarray) -> Frame:
@@ -122,28 +147,20 @@ def test_a_wire_as_wide_as_a_close_up_makes_it_is_no_shading(tmp_path):
     and they were found in no frame; now in every one, within 0.2 px of where drawn."""
     size, radius = (640, 360), 60
     drawn = {"A": (110.0, 180.0), "B": (300.3, 120.6), "C": (520.0, 240.0)}
-    colours = {"A": (40, 190, 70), "B": (200, 40, 40), "C": (40, 70, 200)}
     path = tmp_path / "close.mp4"
     rng = np.random.default_rng(3)
-    with av.open(str(path), "w") as out:
-        s = out.add_stream("libx264", rate=25, options={"crf": "18"})
-        s.width, s.height, s.pix_fmt = *size, "yuv420p"
-        for k in range(6):
-            at = dict(drawn, B=(drawn["B"][0] + 1.5 * k, drawn["B"][1] + 0.7 * k))
-            img = np.full((size[1], size[0], 3), 105.0)
-            for name, (x, y) in at.items():
-                m = _disc(size, x, y, radius, up=4)
-                img = img * (1 - m[..., None]) + np.array(colours[name]) * m[..., None]
-            line = np.zeros((size[1] * 4, size[0] * 4), np.uint8)
-            ends = [tuple(_fine(v, 4, bits=4) for v in at[n]) for n in "BC"]
-            cv2.line(line, ends[0], ends[1], 255, round(radius / 8 * 4), cv2.LINE_AA, 4)
-            m = _averaged(line, size)
-            img = img * (1 - m[..., None]) + np.array([70.0, 70.0, 75.0]) * m[..., None]
-            img = np.clip(np.round(img + rng.normal(0, 2.0, img.shape)), 0, 255).astype(np.uint8)
-            frame = av.VideoFrame.from_ndarray(img, format="rgb24").reformat(format="yuv420p")
-            frame.pts = k
-            out.mux(s.encode(frame))
-        out.mux(s.encode())
+
+    def picture(k: int) -> np.ndarray:
+        at = dict(drawn, B=(drawn["B"][0] + 1.5 * k, drawn["B"][1] + 0.7 * k))
+        img = _discs(size, at, radius)
+        line = np.zeros((size[1] * 4, size[0] * 4), np.uint8)
+        ends = [tuple(_fine(v, 4, bits=4) for v in at[n]) for n in "BC"]
+        cv2.line(line, ends[0], ends[1], 255, round(radius / 8 * 4), cv2.LINE_AA, 4)
+        m = _averaged(line, size)
+        img = img * (1 - m[..., None]) + np.array([70.0, 70.0, 75.0]) * m[..., None]
+        return np.clip(np.round(img + rng.normal(0, 2.0, img.shape)), 0, 255).astype(np.uint8)
+
+    _h264(path, size, 25, [picture(k) for k in range(6)])
     tab = track(open_frames(path)).tracks
     for name in "ABC":
         assert tab[f"{name}_ok"].all(), name
@@ -152,6 +169,35 @@ def test_a_wire_as_wide_as_a_close_up_makes_it_is_no_shading(tmp_path):
         dy = tab[f"{name}_y_px"] - [drawn[name][1] + (0.7 * k if name == "B" else 0)
                                     for k in tab["frame"]]
         assert np.hypot(dx, dy).max() < 0.2, name
+
+
+def test_markers_coming_nearer_are_followed_as_they_grow(tmp_path):
+    """The rig coming nearer the camera: the three discs grow from 24 to 34 px in radius
+    over 40 frames of H.264 4:2:0 (A and B moving, C still). With the size kept as learned
+    in the first frames, each was lost once its rim passed the coverage's background
+    ring: found in 38-40 % of the frames. Taken anew where found larger, all are found in
+    every frame, within 0.4 px of where drawn (0.29 px at most)."""
+    size, frames = (480, 270), 40
+
+    def drawn(k: int) -> tuple[float, dict[str, tuple[float, float]]]:
+        return 24.0 + 10.0 * k / (frames - 1), {
+            "A": (80.0 + 0.6 * k, 120.0 + 0.3 * k), "B": (240.3, 90.0 + 1.1 * k),
+            "C": (400.0, 150.0)}
+
+    path = tmp_path / "nearer.mp4"
+    rng = np.random.default_rng(5)
+
+    def picture(k: int) -> np.ndarray:
+        img = _discs(size, drawn(k)[1], drawn(k)[0])
+        return np.clip(np.round(img + rng.normal(0, 2.0, img.shape)), 0, 255).astype(np.uint8)
+
+    _h264(path, size, 30, [picture(k) for k in range(frames)])
+    tab = track(open_frames(path)).tracks
+    for name in "ABC":
+        assert tab[f"{name}_ok"].all(), name
+        truth = np.array([drawn(k)[1][name] for k in tab["frame"]])
+        error = np.hypot(tab[f"{name}_x_px"] - truth[:, 0], tab[f"{name}_y_px"] - truth[:, 1])
+        assert error.max() < 0.4, name
 
 
 def test_the_background_ring_stays_where_it_is_in_px():

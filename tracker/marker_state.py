@@ -233,6 +233,8 @@ class MarkerState:
     edges_seen: deque[float] = field(default_factory=lambda: deque(maxlen=EDGES_KEPT))
     #: Frames whose blob of its colour, a printed disc's, was refused as shaded.
     refused_shaded: int = 0
+    #: It has been found larger than learned and its size taken anew (:meth:`regrow`).
+    nearing: bool = False
     #: After a false start: its frames and radius (px), to be judged at the next find.
     false_start: tuple[list[int], float] | None = None
 
@@ -340,14 +342,18 @@ class MarkerState:
         usual = 1.0 if self.gain is None else min(max(self.gain, 1 / GAIN_DRIFT), GAIN_DRIFT)
         return nominal[0] * usual, nominal[1] * usual
 
-    def whole(self, centre: Centre) -> bool:
+    def whole(self, centre: Centre, nearer: bool = False) -> bool:
         """Does the fit look like the whole marker: its usual visible area and residual?
         (A rim fit has weighed out what covers the marker already; while learning,
-        there is no usual yet.)"""
+        there is no usual yet.) ``nearer``: the marker has come nearer, and its usual
+        area is taken at the fit's radius."""
         if centre.rim or self.learning:
             return True
         if self.area_alpha is not None and np.isfinite(centre.area):
-            shown = centre.area / self.area_alpha
+            usual = self.area_alpha
+            if nearer and self.radius and np.isfinite(centre.radius):
+                usual *= (centre.radius / self.radius) ** 2
+            shown = centre.area / usual
             if shown < 1 - AREA_TOLERANCE:
                 # Less area: covered, or dimmed as a whole (a ball falling out of the
                 # light). Covered, its middle keeps its usual α; dimmed, it does not,
@@ -374,6 +380,12 @@ class MarkerState:
             return False
         return (abs(centre.area / self.area_alpha - 1) <= SAME_AREA
                 and abs(centre.peak / self.peak - 1) <= SAME_AREA)
+
+    def regrow(self, radius: float) -> None:
+        """Take ``radius`` (px) as the marker's size from now: it has come nearer. Its
+        usual area is the next fit's."""
+        self.radius, self.area_alpha, self.peak = radius, None, None
+        self.nearing = True
 
     def remember(self, centre: Centre, seen: NDArray | None, frame: int = -1) -> None:
         """Keep the fitted shape and follow slow drift of the marker's colour; while
