@@ -67,9 +67,10 @@ def _discs(size: tuple[int, int], at: dict[str, tuple[float, float]], radius: fl
 
 
 def _h264(path, size: tuple[int, int], rate: int, pictures: list[np.ndarray]) -> None:
-    """``pictures`` (8-bit RGB) coded as H.264 4:2:0, crf 18, to ``path``."""
+    """``pictures`` (8-bit RGB) coded as H.264 4:2:0, crf 18, to ``path``, by one thread:
+    with x264's own threads, the same pictures came out coded otherwise from run to run."""
     with av.open(str(path), "w") as out:
-        s = out.add_stream("libx264", rate=rate, options={"crf": "18"})
+        s = out.add_stream("libx264", rate=rate, options={"crf": "18", "threads": "1"})
         s.width, s.height, s.pix_fmt = *size, "yuv420p"
         for k, img in enumerate(pictures):
             frame = av.VideoFrame.from_ndarray(img, format="rgb24").reformat(format="yuv420p")
@@ -175,8 +176,11 @@ def test_markers_coming_nearer_are_followed_as_they_grow(tmp_path):
     """The rig coming nearer the camera: the three discs grow from 24 to 34 px in radius
     over 40 frames of H.264 4:2:0 (A and B moving, C still). With the size kept as learned
     in the first frames, each was lost once its rim passed the coverage's background
-    ring: found in 38-40 % of the frames. Taken anew where found larger, all are found in
-    every frame, within 0.4 px of where drawn (0.29 px at most)."""
+    ring: found in 35-38 % of the frames. Taken anew where found larger, all are found in
+    every frame, within 0.15 px RMS of where drawn and 0.5 px at most (0.06-0.08 and
+    0.16-0.27 measured; over eight noise seeds the largest error was 0.31 px, in the
+    frames before the marker is first found larger, while its fit is held to the
+    learned size)."""
     size, frames = (480, 270), 40
 
     def drawn(k: int) -> tuple[float, dict[str, tuple[float, float]]]:
@@ -197,7 +201,7 @@ def test_markers_coming_nearer_are_followed_as_they_grow(tmp_path):
         assert tab[f"{name}_ok"].all(), name
         truth = np.array([drawn(k)[1][name] for k in tab["frame"]])
         error = np.hypot(tab[f"{name}_x_px"] - truth[:, 0], tab[f"{name}_y_px"] - truth[:, 1])
-        assert error.max() < 0.4, name
+        assert np.sqrt(np.mean(error**2)) < 0.15 and error.max() < 0.5, name
 
 
 def test_the_background_ring_stays_where_it_is_in_px():

@@ -231,6 +231,12 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
                 if plausible:
                     if not state.whole(centre):
                         return None, "partly_covered"
+                    if state.nearing and not held and centre.radius > state.radius + GREW:
+                        # Still coming nearer: its size is taken on before its rim
+                        # reaches the background ring (discs growing to 87 px were
+                        # 0.040-0.082 px RMS off when lost and refound instead, not
+                        # 0.026-0.047).
+                        state.regrow(centre.radius)
                     state.remember(_teaching_nothing(centre, state) if held else centre,
                                    seen, frame.index)
                     return centre, "ok"
