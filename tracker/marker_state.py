@@ -191,6 +191,7 @@ class MarkerState:
     lit: NDArray | None = None
     residual: float | None = None  # usual RMS residual of the disc fit
     area_alpha: float | None = None  # usual visible area Σα, px²
+    radius_sq: float | None = None  # usual fitted radius², px², weighed as area_alpha
     peak: float | None = None  # usual α in the marker's middle (Centre.peak)
     #: Usual fitted coverage gain (1 for a disc; a strip of tape fitted as a disc
     #: shows ≈ 1.5, its blur and gain trading off), learned after the size.
@@ -354,6 +355,12 @@ class MarkerState:
             if nearer and self.radius and np.isfinite(centre.radius):
                 usual *= (centre.radius / self.radius) ** 2
             shown = centre.area / usual
+            if shown < 1 - AREA_TOLERANCE and self._going_away(centre):
+                # The usual area follows each fit by a tenth, so it lags about nine
+                # frames of shrinking behind: discs going from 30 to 21 px in radius
+                # over 30 frames were judged covered from frame 19-23 on. Judged at
+                # the fitted size, they are found in 29-30 of the 30.
+                shown *= self.radius_sq / centre.radius**2
             if shown < 1 - AREA_TOLERANCE:
                 # Less area: covered, or dimmed as a whole (a ball falling out of the
                 # light). Covered, its middle keeps its usual α; dimmed, it does not,
@@ -372,6 +379,19 @@ class MarkerState:
             return True
         return self._same_area_and_middle(centre)
 
+    def _going_away(self, centre: Centre) -> bool:
+        """Is the fit the whole marker seen smaller, as it goes away from the camera: a
+        radius over 1 px short of its learned one, its usual residual and its middle's
+        usual α?"""
+        return bool(self.radius and self.radius_sq and self.residual and self.peak
+                    and np.isfinite(centre.radius) and np.isfinite(centre.peak)
+                    and np.isfinite(centre.rms_residual)
+                    and centre.radius < self.radius - 1.0
+                    and self.shape is not None and len(self.shape) > 2
+                    and self.shape[2] < self.radius - 1.0
+                    and centre.rms_residual <= RESIDUAL_LIMIT * max(self.residual, 0.01)
+                    and abs(centre.peak / self.peak - 1) <= SAME_AREA)
+
     def _same_area_and_middle(self, centre: Centre) -> bool:
         """Are the fit's visible area and middle both within :data:`SAME_AREA` of the
         marker's usual (so what raised its residual covers none of it)?"""
@@ -384,7 +404,7 @@ class MarkerState:
     def regrow(self, radius: float) -> None:
         """Take ``radius`` (px) as the marker's size from now: it has come nearer. Its
         usual area is the next fit's."""
-        self.radius, self.area_alpha, self.peak = radius, None, None
+        self.radius, self.area_alpha, self.peak, self.radius_sq = radius, None, None, None
         self.nearing = True
 
     def remember(self, centre: Centre, seen: NDArray | None, frame: int = -1) -> None:
@@ -395,7 +415,7 @@ class MarkerState:
             self.radii_seen.append(centre.radius)
             self.learning_frames.append(frame)
             self.radius = float(np.median(self.radii_seen))
-            self.residual = self.area_alpha = self.peak = None
+            self.residual = self.area_alpha = self.peak = self.radius_sq = None
         if np.isfinite(centre.rms_residual):
             self.residual = (centre.rms_residual if self.residual is None
                              else 0.9 * self.residual + 0.1 * centre.rms_residual)
@@ -405,6 +425,9 @@ class MarkerState:
         if np.isfinite(centre.area) and not centre.rim:
             self.area_alpha = (centre.area if self.area_alpha is None
                                else 0.9 * self.area_alpha + 0.1 * centre.area)
+            if np.isfinite(centre.radius):
+                self.radius_sq = (centre.radius**2 if self.radius_sq is None
+                                  else 0.9 * self.radius_sq + 0.1 * centre.radius**2)
         if np.isfinite(centre.peak):
             self.peak = (centre.peak if self.peak is None
                          else 0.9 * self.peak + 0.1 * centre.peak)
