@@ -34,6 +34,7 @@ from __future__ import annotations
 import argparse
 import fractions
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -130,7 +131,9 @@ def write(path: Path, radius: int, encoder: str, layout: str, options: dict,
     light = 0.85 + 0.3 * (1 - xx / W) * (1 - 0.5 * yy / H)
     background = (np.array([105.0, 110.0, 100.0]) * light[..., None])
     rng = np.random.default_rng(radius)
-    tmp = path.with_suffix(".part" + path.suffix)
+    # One part file a process: two runs making the same clip at once each finish their
+    # own (a shared one was renamed away under the second, which then stopped).
+    tmp = path.with_suffix(f".part{os.getpid()}" + path.suffix)
     with av.open(str(tmp), "w") as out:
         s = out.add_stream(encoder, rate=FPS, options=options)
         s.width, s.height, s.pix_fmt = W, H, layout
