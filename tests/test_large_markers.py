@@ -213,7 +213,11 @@ def test_markers_coming_nearer_or_going_away_are_followed(radii, frames, lossles
         return np.clip(np.round(img + rng.normal(0, 2.0, img.shape)), 0, 255).astype(np.uint8)
 
     _h264(path, size, 30, [picture(k) for k in range(frames)], lossless)
-    tab = track(open_frames(path)).tracks
+    result = track(open_frames(path))
+    tab = result.tracks
+    # The user hears of the size taken anew, and of nothing else; only where it grew.
+    grew = [n for n in result.problems if "px in radius" in n]
+    assert len(grew) == (3 if radii[1] > radii[0] else 0), result.problems
     for name in "ABC":
         ok = tab[f"{name}_ok"].to_numpy(bool)
         assert ok.mean() >= found, name

@@ -234,8 +234,11 @@ class MarkerState:
     edges_seen: deque[float] = field(default_factory=lambda: deque(maxlen=EDGES_KEPT))
     #: Frames whose blob of its colour, a printed disc's, was refused as shaded.
     refused_shaded: int = 0
-    #: It has been found larger than learned and its size taken anew (:meth:`regrow`).
+    #: It has been found larger than learned and its size taken anew (:meth:`regrow`):
+    #: how many times, and its radius as first learned (px).
     nearing: bool = False
+    regrown: int = 0
+    learned_radius: float | None = None
     #: After a false start: its frames and radius (px), to be judged at the next find.
     false_start: tuple[list[int], float] | None = None
 
@@ -404,8 +407,20 @@ class MarkerState:
     def regrow(self, radius: float) -> None:
         """Take ``radius`` (px) as the marker's size from now: it has come nearer. Its
         usual area is the next fit's."""
+        if self.learned_radius is None:
+            self.learned_radius = self.radius
         self.radius, self.area_alpha, self.peak, self.radius_sq = radius, None, None, None
         self.nearing = True
+        self.regrown += 1
+
+    def nearer_note(self) -> str | None:
+        """What the user should hear of a marker whose size was taken anew as it came
+        nearer (:meth:`regrow`), or None."""
+        if not self.regrown or self.learned_radius is None or self.radius is None:
+            return None
+        return (f"marker {self.spec.name} grew from {self.learned_radius:.1f} to "
+                f"{self.radius:.1f} px in radius (the rig or camera came nearer?): its size "
+                f"was taken anew {self.regrown} time{'s' if self.regrown > 1 else ''}")
 
     def remember(self, centre: Centre, seen: NDArray | None, frame: int = -1) -> None:
         """Keep the fitted shape and follow slow drift of the marker's colour; while
