@@ -413,15 +413,6 @@ class MarkerState:
         self.nearing = True
         self.regrown += 1
 
-    def nearer_note(self) -> str | None:
-        """What the user should hear of a marker whose size was taken anew as it came
-        nearer (:meth:`regrow`), or None."""
-        if not self.regrown or self.learned_radius is None or self.radius is None:
-            return None
-        return (f"marker {self.spec.name} grew from {self.learned_radius:.1f} to "
-                f"{self.radius:.1f} px in radius (the rig or camera came nearer?): its size "
-                f"was taken anew {self.regrown} time{'s' if self.regrown > 1 else ''}")
-
     def remember(self, centre: Centre, seen: NDArray | None, frame: int = -1) -> None:
         """Keep the fitted shape and follow slow drift of the marker's colour; while
         learning, its radius is the median of those fitted so far, and its usual
@@ -689,6 +680,22 @@ def rig_focus_note(edges: dict[str, float]) -> str | None:
     return (f"{_out_of_focus(soft)}. Out of focus, θ may be off by 0.1-0.7° and a marker "
             "lost in up to a tenth of the frames (bench/README.md, stops 49-52): focus the "
             "camera on the markers before filming")
+
+
+def nearer_notes(states: list[MarkerState]) -> list[str]:
+    """What the user should hear of markers whose size was taken anew as they came nearer
+    (:meth:`MarkerState.regrow`): one note for all of them, or none."""
+    grew = [st for st in states if st.regrown and st.learned_radius and st.radius]
+    if not grew:
+        return []
+    one = len(grew) == 1
+    return [f"marker{'' if one else 's'} {', '.join(st.spec.name for st in grew)} grew from "
+            f"{', '.join(f'{st.learned_radius:.1f}' for st in grew)} to "
+            f"{', '.join(f'{st.radius:.1f}' for st in grew)} px in radius (the rig or camera "
+            f"came nearer?): {'its size was' if one else 'their sizes were'} taken anew "
+            f"{', '.join(str(st.regrown) for st in grew)} times. A scale in mm from one known "
+            "length holds at one distance from the camera only: keep the camera and the rig "
+            "where they are while filming"]
 
 
 def focus_notes(states: list[MarkerState], found: dict[str, float]) -> list[str]:

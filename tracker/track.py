@@ -33,6 +33,7 @@ from .marker_state import (
     REST_STEP,
     MarkerState,
     focus_notes,
+    nearer_notes,
 )
 from .markers import (
     DEFAULT_MARKERS,
@@ -1124,7 +1125,7 @@ def track(
     notes = [n for st in state.markers for n in st.notes] + stair_notes(tracks, specs)
     notes += [note for st in state.markers if found[st.spec.name] == 0
               and (note := st.never_found_note())]
-    notes += [note for st in state.markers if (note := st.nearer_note())]
+    notes += nearer_notes(state.markers)
     notes += focus_notes(state.markers, found) + lighting_notes(state.lights)
     if hued and (note := colourless_note(source)):
         notes.insert(0, note)
