@@ -15,7 +15,8 @@ import pytest
 
 from cranktrack.tracker import refine as refine_module
 from cranktrack.tracker.binned import BinnedFrame, from_bins, to_bins
-from cranktrack.tracker.markers import parse_markers
+from cranktrack.tracker.marker_state import MarkerState, nearer_notes
+from cranktrack.tracker.markers import DEFAULT_MARKERS, parse_markers
 from cranktrack.tracker.refine import LARGE_RADIUS_PX, refine
 from cranktrack.tracker.track import locate, track
 from cranktrack.tracker.video import Frame, open_frames
@@ -226,6 +227,24 @@ def test_markers_coming_nearer_or_going_away_are_followed(radii, frames, lossles
         error = np.hypot(tab[f"{name}_x_px"] - truth[:, 0],
                          tab[f"{name}_y_px"] - truth[:, 1]).to_numpy()[ok]
         assert np.sqrt(np.mean(error**2)) < rms_px and error.max() < max_px, name
+
+
+def test_the_note_on_markers_come_nearer_names_each_once():
+    """One note for every marker whose size was taken anew, with its sizes and counts;
+    none where no size was."""
+    a, b, c = (MarkerState(spec) for spec in DEFAULT_MARKERS)
+    for st in (a, b, c):
+        st.radius = 20.0
+    a.regrow(23.0)
+    assert nearer_notes([a, c])[0].startswith(
+        "marker A grew from 20.0 to 23.0 px in radius (the rig or camera came nearer?): its "
+        "size was taken anew once.")
+    b.regrow(23.5)
+    b.regrow(26.0)
+    (note,) = nearer_notes([a, b, c])
+    assert note.startswith("markers A, B grew from 20.0, 20.0 to 23.0, 26.0 px") \
+        and "taken anew 1, 2 times" in note
+    assert nearer_notes([c]) == []
 
 
 def test_the_background_ring_stays_where_it_is_in_px():

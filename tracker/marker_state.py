@@ -383,9 +383,9 @@ class MarkerState:
         return self._same_area_and_middle(centre)
 
     def _going_away(self, centre: Centre) -> bool:
-        """Is the fit the whole marker seen smaller, as it goes away from the camera: a
-        radius over 1 px short of its learned one, its usual residual and its middle's
-        usual α?"""
+        """Is the fit the whole marker seen smaller, as it goes away from the camera: its
+        radius, and its last fit's, over 1 px short of the learned one, with its usual
+        residual and its middle's usual α?"""
         return bool(self.radius and self.radius_sq and self.residual and self.peak
                     and np.isfinite(centre.radius) and np.isfinite(centre.peak)
                     and np.isfinite(centre.rms_residual)
@@ -689,11 +689,13 @@ def nearer_notes(states: list[MarkerState]) -> list[str]:
     if not grew:
         return []
     one = len(grew) == 1
+    times = ("once" if one and grew[0].regrown == 1
+             else ", ".join(str(st.regrown) for st in grew) + " times")
     return [f"marker{'' if one else 's'} {', '.join(st.spec.name for st in grew)} grew from "
             f"{', '.join(f'{st.learned_radius:.1f}' for st in grew)} to "
             f"{', '.join(f'{st.radius:.1f}' for st in grew)} px in radius (the rig or camera "
             f"came nearer?): {'its size was' if one else 'their sizes were'} taken anew "
-            f"{', '.join(str(st.regrown) for st in grew)} times. A scale in mm from one known "
+            f"{times}. A scale in mm from one known "
             "length holds at one distance from the camera only: keep the camera and the rig "
             "where they are while filming"]
 
