@@ -39,10 +39,12 @@ error and ±1σ coverage against the truth, over the frames where they were meas
 ``--no-wire`` draws the same bed without the wire, to tell its share of the error from
 the bar's and the codec's. ``--scale K`` films it K times closer (:func:`film_closer`).
 ``--flicker F`` lights the bed by a lamp on the mains whose light swings by F either
-way at 100 Hz.
+way at 100 Hz. ``--nearer F`` brings the bed nearer the camera over the clip: it grows
+about A to F times its size by the last frame (px/mm, markers, bar and wire), in a
+frame F times larger; θ, an angle, is the same.
 
     .venv/bin/python bench/sma_bed_apart.py [--seeds 3] [--case N] [--keep DIR] [--no-wire]
-        [--lens-blur PX] [--noise DN] [--crf N] [--flicker F] [--scale K]
+        [--lens-blur PX] [--noise DN] [--crf N] [--flicker F] [--scale K] [--nearer F]
 """
 
 from __future__ import annotations
@@ -129,12 +131,33 @@ def film_closer(k: float) -> None:
         SUPERSAMPLE = 2
 
 
-def points_px(theta_deg: float) -> dict[str, NDArray]:
-    """A, B, C in frame px: C on +x of A, B above the line A–C (image y down)."""
+#: The bed grows to this many times its size over the clip (``--nearer``).
+NEARER = 1.0
+
+
+def px_per_mm_at(t: float, last_t: float) -> float:
+    """The bed's px/mm at time ``t`` (s) of a clip whose last frame is at ``last_t``:
+    :data:`PX_PER_MM` growing steadily to :data:`NEARER` times it."""
+    return PX_PER_MM * (1.0 + (NEARER - 1.0) * t / max(last_t, 1e-9))
+
+
+def come_nearer(f: float) -> None:
+    """Bring the bed nearer over the clip, to ``f`` times its size by the last frame
+    (:func:`px_per_mm_at`), in a frame ``f`` times larger to hold it. Set once, before
+    anything is drawn, as :func:`film_closer` does."""
+    global SIZE, NEARER
+    SIZE = (2 * round(SIZE[0] * f / 2), 2 * round(SIZE[1] * f / 2))
+    NEARER = f
+
+
+def points_px(theta_deg: float, px_per_mm: float | None = None) -> dict[str, NDArray]:
+    """A, B, C in frame px: C on +x of A, B above the line A–C (image y down), at
+    ``px_per_mm`` (:data:`PX_PER_MM` by default)."""
+    k = PX_PER_MM if px_per_mm is None else px_per_mm
     a = np.array(A_PX)
     th = math.radians(theta_deg)
-    b = a + PX_PER_MM * L2_MM * np.array([math.cos(th), -math.sin(th)])
-    c = a + np.array([PX_PER_MM * L1_MM, 0.0])
+    b = a + k * L2_MM * np.array([math.cos(th), -math.sin(th)])
+    c = a + np.array([k * L1_MM, 0.0])
     return {"A": a, "B": b, "C": c}
 
 
@@ -157,12 +180,13 @@ def _fine(p: NDArray) -> tuple[int, int]:
     return (round((p[0] * s + (s - 1) / 2) * 16), round((p[1] * s + (s - 1) / 2) * 16))
 
 
-def draw(background: NDArray[np.float32], theta_deg: float, wire: bool = True
-         ) -> NDArray[np.float32]:
-    """One instant's picture on the fine grid (without the SMA wire if not ``wire``)."""
+def draw(background: NDArray[np.float32], theta_deg: float, wire: bool = True,
+         px_per_mm: float | None = None) -> NDArray[np.float32]:
+    """One instant's picture on the fine grid (without the SMA wire if not ``wire``), the
+    bed at ``px_per_mm`` (:data:`PX_PER_MM` by default)."""
     img = background.copy()
-    p = points_px(theta_deg)
-    s = SUPERSAMPLE * PX_PER_MM
+    p = points_px(theta_deg, px_per_mm)
+    s = SUPERSAMPLE * (PX_PER_MM if px_per_mm is None else px_per_mm)
     bar = 0.5 * CRANK_BAR_MM * s
     ab = p["B"] - p["A"]
     n = np.array([-ab[1], ab[0]]) / np.hypot(*ab)
@@ -214,14 +238,14 @@ def lamp(times: NDArray, flicker: float) -> float:
 
 
 def frame(background: NDArray[np.float32], heating: Heating, t: float, exposure_s: float,
-          rng: np.random.Generator, wire: bool = True, camera: Camera = Camera()
-          ) -> NDArray[np.uint8]:
+          rng: np.random.Generator, wire: bool = True, camera: Camera = Camera(),
+          px_per_mm: float | None = None) -> NDArray[np.uint8]:
     """The camera's picture at frame time ``t`` (s): the exposure's average, the lens's
-    blur, down to frame pixels, sensor noise, 8 bits."""
+    blur, down to frame pixels, sensor noise, 8 bits; the bed at ``px_per_mm``."""
     times = [t] if exposure_s <= 0 else t + exposure_s * (
         (np.arange(EXPOSURE_SAMPLES) + 0.5) / EXPOSURE_SAMPLES - 0.5)
     theta, _ = heating.theta(np.asarray(times))
-    acc = sum(draw(background, th, wire) for th in theta) / len(theta)
+    acc = sum(draw(background, th, wire, px_per_mm) for th in theta) / len(theta)
     acc = acc * lamp(np.asarray(times), camera.flicker)
     acc = cv2.GaussianBlur(acc, (0, 0), camera.lens_blur_px * SUPERSAMPLE)
     small = cv2.resize(acc, SIZE, interpolation=cv2.INTER_AREA)
@@ -242,9 +266,11 @@ def render(path: Path, heating: Heating, seconds: float, fps: float, exposure_s:
         # differently from run to run, and no seed made a render again.
         stream.options = {"crf": str(camera.crf), "preset": "fast",
                           "x264-params": "mbtree=0"}
-        for k in range(round(seconds * fps)):
+        n = round(seconds * fps)
+        for k in range(n):
             picture = av.VideoFrame.from_ndarray(
-                frame(background, heating, k / fps, exposure_s, rng, wire, camera),
+                frame(background, heating, k / fps, exposure_s, rng, wire, camera,
+                      px_per_mm_at(k / fps, (n - 1) / fps)),
                 format="rgb24")
             for packet in stream.encode(picture):
                 out.mux(packet)
@@ -271,7 +297,8 @@ def measure(case: Case, seed: int, folder: Path, seconds: float, fps: float,
             wire: bool = True, camera: Camera = Camera()) -> dict[str, float]:
     """Render, track with ``cranktrack`` (A–C = L1 as the known length), compare."""
     tag = ("" if wire else "_nowire") + camera.tag() + (
-        f"_px{PX_PER_MM:g}" if PX_PER_MM != BED_PX_PER_MM else "")
+        f"_px{PX_PER_MM:g}" if PX_PER_MM != BED_PX_PER_MM else "") + (
+        f"_nearer{NEARER:g}" if NEARER != 1.0 else "")
     video = folder / f"sma_apart_{seed}{tag}.mp4"
     if not video.exists():
         # A render kept by --keep is used again: the writer is deterministic
@@ -282,7 +309,9 @@ def measure(case: Case, seed: int, folder: Path, seconds: float, fps: float,
     run = track_run(video, runs, ("A", "C", L1_MM))
     tracks, kin = run.tracks, run.kinematics
     t = tracks["t_s"].to_numpy(float)
-    drawn = [points_px(th) for th in case.heating.theta(t)[0]]
+    last_t = (round(seconds * fps) - 1) / fps
+    drawn = [points_px(th, px_per_mm_at(ti, last_t))
+             for th, ti in zip(case.heating.theta(t)[0], t, strict=True)]
     out: dict[str, float] = {"frames": len(t)}
     for m in "ABC":
         ok = tracks[f"{m}_ok"].to_numpy(bool)
@@ -342,6 +371,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--scale", type=float, default=1.0,
                         help="film the bed this many times closer (frame, px/mm; 3.2 gives "
                              "markers of 33 px radius in 3072×1728)")
+    parser.add_argument("--nearer", type=float, default=1.0,
+                        help="the bed comes nearer over the clip, growing to this many "
+                             "times its size by the last frame (in a frame as much larger)")
     parser.add_argument("--flicker", type=float, default=0.0,
                         help="the lamp's light swings by this fraction either way at "
                              f"{2 * MAINS_HZ:g} Hz (default 0: a steady light)")
@@ -349,6 +381,8 @@ def main(argv: list[str] | None = None) -> None:
     print(f"libraries: {versions_line()}")
     if args.scale != 1.0:
         film_closer(args.scale)
+    if args.nearer != 1.0:
+        come_nearer(args.nearer)
     cases = [CASES[i] for i in args.case] if args.case else list(CASES)
     camera = Camera(args.lens_blur, args.noise, args.crf, args.flicker)
     print(f"SMA bed, second renderer: {SIZE[0]}×{SIZE[1]}, {args.fps:g} fps, {args.seconds:g} s, "
@@ -356,6 +390,7 @@ def main(argv: list[str] | None = None) -> None:
           f"radius), noise {camera.noise_dn:g} DN, H.264 crf {camera.crf}; {args.seeds} seeds "
           "per case"
           + ("; no wire drawn" if args.no_wire else "")
+          + (f"; coming nearer, to {NEARER:g}× by the last frame" if NEARER != 1.0 else "")
           + (f"; lens blur {camera.lens_blur_px:g} px"
              if camera.lens_blur_px != LENS_BLUR_PX else "")
           + (f"; lamp flicker ±{camera.flicker:.0%} at {2 * MAINS_HZ:g} Hz"
