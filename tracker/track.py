@@ -465,9 +465,9 @@ LEARN_DRIFT = 0.2
 #: the marker come nearer (:func:`_nearer`): its rim then lies past the pixels the
 #: coverage unmixes (2 px past the learned rim) and nears its background ring (3-5 px
 #: past). Such a blob is fitted at its own size, and a fit larger than the last one
-#: becomes the marker's size (:meth:`.MarkerState.regrow`). Three discs drawn growing
-#: from 26 to 38 px over 90 frames were found in 27-33 % of them with the size kept as
-#: learned (bench/large_markers.py --nearer).
+#: becomes the marker's size (:meth:`.MarkerState.regrow`). With the size kept as
+#: learned, discs growing to 1.45 times their radius were found in 12-51 % of the
+#: frames (bench/large_markers.py --nearer 1.45; 93-100 % now).
 GROWN = 2.0
 #: ...and only where the marker's last fit had grown by this already (px), or it has
 #: been found nearer before: on a real clip a blob larger than its marker is most often
