@@ -69,7 +69,7 @@ SOFT_MAX = 3.0
 #: share their colour (4:2:0, 4:2:2, JPEG) is fitted on the frame seen block by block
 #: (:mod:`.binned`, :func:`_refine_binned`). In 1080p H.264 (bench/large_markers.py)
 #: discs of radius 30 px were followed at decoding speed, 60 px at half of it; seen
-#: block by block, 60 px at 0.88 of it, with errors 0.025-0.030 px RMS against
+#: block by block, 60 px at 0.88 of it, with errors 0.026-0.030 px RMS against
 #: 0.028-0.031 pixel by pixel.
 LARGE_RADIUS_PX = 32.0
 
@@ -125,8 +125,7 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
         # Following a ball: its rim has a coverage of its own, so the disc fit's is
         # not made at all.
         return _rim(image, guess, radius, marker, luminance)
-    # A frame seen block by block (:mod:`.binned`) keeps the coverage's ring where it is in px.
-    unit = image.unit_px if isinstance(image, BinnedFrame) else 1.0
+    unit = _unit_px(image)
     patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
     alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance, unit)
     c = None
@@ -211,6 +210,12 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
     if c is None:
         return fit, seen
     return Centre(c.x, c.y, c.sigma, c.radius, True), seen
+
+
+def _unit_px(image: Frame | BinnedFrame | NDArray) -> float:
+    """How many frame px one of ``image``'s pixels spans: 2 on a frame seen block by
+    block (:mod:`.binned`), whose coverage keeps its background ring where it is in px."""
+    return image.unit_px if isinstance(image, BinnedFrame) else 1.0
 
 
 def _refine_binned(frame: Frame, guess: tuple[float, float], radius: float,
@@ -400,8 +405,7 @@ def _rim(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, flo
     for _ in range(4):
         patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
         alpha, seen_here = rim_coverage(patch, x0, y0, guess, radius, marker, luminance,
-                                        image.unit_px if isinstance(image, BinnedFrame)
-                                        else 1.0)
+                                        _unit_px(image))
         seen = seen_here if seen is None else seen
         fit = fit_outline(alpha, x0, y0, guess, radius)
         if not fit.ok or np.hypot(fit.x - guess[0], fit.y - guess[1]) <= RIM_RECENTRE_PX:
