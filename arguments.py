@@ -303,6 +303,9 @@ def _calibrate_command(sub: argparse._SubParsersAction) -> None:
     q.add_argument("images", nargs="+", help="photos of the board in many poses")
     _add_board_options(q)
     q.add_argument("--fix-aspect-ratio", action="store_true", help="force fx = fy")
+    q.add_argument("--k3", choices=("auto", "free", "fixed"), default="auto",
+                   help="the fifth distortion coefficient: fitted only where the photos call "
+                        "for it (auto), always (free: a wide-angle lens), or never (fixed)")
     q.add_argument("--out", required=True, help="camera calibration file to write (JSON)")
     q = cal_sub.add_parser("plane", help="pixels to mm in the mechanism's plane")
     q.add_argument("image", nargs="?", help="photo of the board lying in the mechanism's plane")

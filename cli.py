@@ -620,19 +620,28 @@ def _board(args: argparse.Namespace):
 
 
 def cmd_calibrate_camera(args: argparse.Namespace) -> int:
-    from .calibration.camera import calibrate_camera
+    from .calibration.camera import K3_BIC, calibrate_camera
     from .calibration.file import save_camera
 
     flags = ("fix_aspect_ratio",) if args.fix_aspect_ratio else ()
-    cal = calibrate_camera(args.images, _board(args), flags)
+    cal = calibrate_camera(args.images, _board(args), flags, args.k3)
     path = save_camera(args.out, cal)
-    K = cal.camera_matrix
+    K, sd = cal.camera_matrix, cal.sigma
     print(f"{len(cal.per_view_rms_px)} views used"
           + (f", board not found in: {', '.join(cal.skipped)}" if cal.skipped else ""))
-    print(f"fx {K[0, 0]:.2f}  fy {K[1, 1]:.2f}  cx {K[0, 2]:.2f}  cy {K[1, 2]:.2f} px; "
+    print(f"fx {K[0, 0]:.2f} ± {sd.get('fx', np.nan):.2f}  fy {K[1, 1]:.2f} ± "
+          f"{sd.get('fy', np.nan):.2f}  cx {K[0, 2]:.2f} ± {sd.get('cx', np.nan):.2f}  "
+          f"cy {K[1, 2]:.2f} ± {sd.get('cy', np.nan):.2f} px; "
           f"distortion k1 {cal.distortion[0]:.4f} k2 {cal.distortion[1]:.4f} "
           f"p1 {cal.distortion[2]:.5f} p2 {cal.distortion[3]:.5f} k3 {cal.distortion[4]:.4f}")
+    if np.isfinite(cal.k3_delta_bic):
+        held = "fix_k3" in cal.flags
+        print(f"k3 {'held at 0' if held else 'fitted'}: the BIC gained by fitting it is "
+              f"{cal.k3_delta_bic:.1f}, {'not ' if held else ''}above {K3_BIC:g}"
+              + (" (--k3 free fits it anyway)" if held else ""))
     print(f"RMS reprojection error {cal.rms_px:.3f} px")
+    for w in cal.warnings:
+        print(f"warning: {w}")
     for name, e in cal.per_view_rms_px.items():
         flag = "  <- bad view: retake or drop it" if name in cal.bad_views else ""
         print(f"  {name:30s} {e:.3f} px{flag}")

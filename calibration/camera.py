@@ -6,6 +6,14 @@ sub-pixel, or ChArUco corners), then ``cv2.calibrateCamera`` for the camera
 matrix and distortion (k1, k2, p1, p2, k3). The quality figures are the RMS
 reprojection error overall and per view; a view whose error is far above
 the others is flagged, since one bad detection skews the whole solution.
+
+The fifth coefficient, k3, bends the frame's corners most. Photos that do not
+need it still let it run off: drawn through a lens with no bend at all
+(bench/tilted_bed.py), 15 photos gave k3 = −1.88, and the rig's angle measured
+through that calibration was up to 0.11° off where holding k3 at 0 left 0.02°. So k3 is
+kept only where the photos call for it (:data:`K3_BIC`), as OpenCV's own stereo
+sample holds it at 0. The σ of each intrinsic (OpenCV's
+``calibrateCameraExtended``) says when the photos do not fix the focal length.
 """
 
 from __future__ import annotations
@@ -23,6 +31,17 @@ from .camera_model import distort_points, undistort_points
 
 #: A view is flagged when its RMS exceeds this multiple of the median view's.
 BAD_VIEW_FACTOR = 3.0
+#: k3 is fitted only when freeing it lowers the BIC of the corners' reprojection by
+#: more than this: the bar the closing loop sets an added term (loop/evidence.py).
+#: Fitting it made the BIC worse on all of these: by 5.5 on OpenCV's 13 chessboard
+#: photos (left*.jpg), 3.5 on its four ChArUco photos, 5.5-7.4 on 15 drawn photos.
+K3_BIC = 20.0
+#: What ``calibrate_camera`` may do with k3 (its ``k3``).
+K3_CHOICES = ("auto", "free", "fixed")
+#: The focal length's σ over this fraction of it: the photos do not fix the camera.
+LOOSE_FOCAL = 0.02
+#: Names of the intrinsics in the order of OpenCV's ``stdDeviationsIntrinsics``.
+INTRINSIC_NAMES = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")
 
 
 @dataclass(frozen=True)
@@ -106,6 +125,12 @@ class CameraCalibration:
     skipped: tuple[str, ...] = ()
     board: dict = field(default_factory=dict)
     flags: tuple[str, ...] = ()
+    #: 1-σ of each intrinsic (:data:`INTRINSIC_NAMES`; px, or unitless for k, p), from
+    #: the corners' scatter; 0 for one held fixed.
+    sigma: dict[str, float] = field(default_factory=dict)
+    #: How much freeing k3 lowered the BIC (NaN: not compared, k3 given by the user).
+    k3_delta_bic: float = float("nan")
+    warnings: tuple[str, ...] = ()
 
     @property
     def fx(self) -> float:
@@ -134,6 +159,9 @@ class CameraCalibration:
             "skipped": list(self.skipped),
             "board": self.board,
             "flags": list(self.flags),
+            "sigma": self.sigma,
+            "k3_delta_bic": self.k3_delta_bic,
+            "warnings": list(self.warnings),
         }
 
     @classmethod
@@ -142,7 +170,8 @@ class CameraCalibration:
                    (int(d["image_size"][0]), int(d["image_size"][1])), float(d["rms_px"]),
                    dict(d.get("per_view_rms_px", {})), tuple(d.get("bad_views", ())),
                    tuple(d.get("skipped", ())), dict(d.get("board", {})),
-                   tuple(d.get("flags", ())))
+                   tuple(d.get("flags", ())), dict(d.get("sigma", {})),
+                   float(d.get("k3_delta_bic", float("nan"))), tuple(d.get("warnings", ())))
 
 
 FLAG_NAMES = {"fix_aspect_ratio": cv2.CALIB_FIX_ASPECT_RATIO,
@@ -167,12 +196,15 @@ def read_grey(path: str | os.PathLike) -> NDArray[np.uint8]:
 
 
 def calibrate_camera(images: list[str | os.PathLike], board: Board,
-                     flags: tuple[str, ...] = ()) -> CameraCalibration:
+                     flags: tuple[str, ...] = (), k3: str = "auto") -> CameraCalibration:
     """Calibrate from photos of ``board``.
 
     Photos where the board is not found are skipped (and listed); at least
     three views are needed. ``flags`` are names from :data:`FLAG_NAMES`
-    (e.g. ``("fix_aspect_ratio",)`` for fx = fy).
+    (e.g. ``("fix_aspect_ratio",)`` for fx = fy). ``k3``: "auto" fits the fifth
+    distortion coefficient only where the photos call for it (:data:`K3_BIC`),
+    "free" always (a wide-angle lens, or to match a calibration made so), "fixed"
+    never (as the flag ``fix_k3``).
 
     Raises
     ------
@@ -183,6 +215,7 @@ def calibrate_camera(images: list[str | os.PathLike], board: Board,
     if unknown:
         raise CranktrackError(f"unknown calibration flag(s) {sorted(unknown)}; known: "
                               + ", ".join(FLAG_NAMES))
+    _check_k3(k3)
     obj, img, names, skipped = [], [], [], []
     size = None
     for p in map(Path, images):
@@ -204,10 +237,31 @@ def calibrate_camera(images: list[str | os.PathLike], board: Board,
         raise CranktrackError(
             f"the board was found in {len(obj)} of {len(images)} photo(s); at least 3 views are "
             f"needed (check --board {board.size[0]}x{board.size[1]} and the board kind)")
+    return calibrate_corners(obj, img, size, names, board, flags, k3, tuple(skipped))
+
+
+def calibrate_corners(obj: list[NDArray], img: list[NDArray], size: tuple[int, int],
+                      names: list[str], board: Board, flags: tuple[str, ...] = (),
+                      k3: str = "auto", skipped: tuple[str, ...] = ()) -> CameraCalibration:
+    """The calibration of :func:`calibrate_camera` from the board's corners found in each
+    view: ``obj`` their places on the board (mm, (n, 1, 3) float32 per view), ``img``
+    where they were seen (px, (n, 1, 2) float32), the photos' ``size`` (width, height)
+    and ``names``."""
+    _check_k3(k3)
+    if k3 == "fixed" and "fix_k3" not in flags:
+        flags = (*flags, "fix_k3")
     flag_bits = 0
     for f in flags:
         flag_bits |= FLAG_NAMES[f]
-    rms, K, dist, rvecs, tvecs = cv2.calibrateCamera(obj, img, size, None, None, flags=flag_bits)
+    fit = _calibrate(obj, img, size, flag_bits)
+    delta_bic = float("nan")
+    if k3 == "auto" and "fix_k3" not in flags:
+        held = _calibrate(obj, img, size, flag_bits | cv2.CALIB_FIX_K3)
+        corners = sum(len(o) for o in obj)
+        delta_bic = _bic(held[0], corners, 0) - _bic(fit[0], corners, 1)
+        if delta_bic <= K3_BIC:
+            fit, flags = held, (*flags, "fix_k3")
+    rms, K, dist, rvecs, tvecs, sd = fit
     per_view = {}
     for name, o, i, r, t in zip(names, obj, img, rvecs, tvecs, strict=True):
         proj, _ = cv2.projectPoints(o, r, t, K, dist)
@@ -215,5 +269,34 @@ def calibrate_camera(images: list[str | os.PathLike], board: Board,
         per_view[name] = float(np.sqrt(np.mean(np.sum(d**2, axis=-1))))
     med = float(np.median(list(per_view.values())))
     bad = tuple(n for n, e in per_view.items() if e > BAD_VIEW_FACTOR * med)
-    return CameraCalibration(K, dist.ravel(), size, float(rms), per_view, bad, tuple(skipped),
-                             board.to_dict(), tuple(flags))
+    sigma = {n: float(v) for n, v in zip(INTRINSIC_NAMES, sd.ravel(), strict=False)}
+    warnings = ()
+    # With fx = fy imposed OpenCV gives fx's σ as 0 and the shared one as fy's.
+    loose = max(sigma.get("fx", 0.0), sigma.get("fy", 0.0))
+    if loose > LOOSE_FOCAL * K[0, 0]:
+        warnings = (f"the focal length is not fixed by these {len(obj)} photos: fx "
+                    f"{K[0, 0]:.1f} ± {loose:.1f} px; take 10-20 photos with the board "
+                    "tilted various ways and filling the frame's corners",)
+    return CameraCalibration(K, dist.ravel(), size, float(rms), per_view, bad, skipped,
+                             board.to_dict(), tuple(flags), sigma, delta_bic, warnings)
+
+
+def _check_k3(k3: str) -> None:
+    if k3 not in K3_CHOICES:
+        raise CranktrackError(f"k3 must be one of {', '.join(K3_CHOICES)}, not {k3!r}")
+
+
+def _calibrate(obj: list[NDArray], img: list[NDArray], size: tuple[int, int], flag_bits: int
+               ) -> tuple[float, NDArray, NDArray, tuple, tuple, NDArray]:
+    """OpenCV's calibration: RMS px, K, distortion, the views' poses, and σ of the
+    intrinsics (:data:`INTRINSIC_NAMES`)."""
+    rms, K, dist, rvecs, tvecs, sd, _, _ = cv2.calibrateCameraExtended(
+        obj, img, size, None, None, flags=flag_bits)
+    return float(rms), K, dist, rvecs, tvecs, sd
+
+
+def _bic(rms_px: float, corners: int, extra: int) -> float:
+    """BIC of a calibration's reprojection residuals (two per corner) up to a constant
+    shared by the models compared, with ``extra`` parameters beyond the smaller one's."""
+    n = 2 * corners
+    return n * np.log(max(rms_px, 1e-12) ** 2 / 2.0) + extra * np.log(n)
