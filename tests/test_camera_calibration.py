@@ -4,6 +4,7 @@ The photos and reference files live in ../shared/data/calibration/ (see the
 PROVENANCE.md there); nobody here wrote them or their numbers.
 """
 
+import re
 from pathlib import Path
 
 import pytest
@@ -76,3 +77,20 @@ def test_bad_board_descriptions():
         Board("charuco", (5, 7), 40.0, 50.0)
     with pytest.raises(CranktrackError, match="unknown board kind"):
         Board("circles", (4, 11), 20.0)
+
+
+@needs_data
+def test_calibrate_camera_prints_the_k3_choice_and_the_loose_focal_length(tmp_path, capsys):
+    from cranktrack.calibration.file import load_camera
+    from cranktrack.cli import main
+    images = sorted(str(p) for p in (DATA / "charuco_5x7").glob("img_0*.jpg"))
+    out = tmp_path / "camera.json"
+    assert main(["calibrate", "camera", *images, "--charuco", "--board", "5x7",
+                 "--square-mm", "40", "--marker-mm", "20", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "k3 held at 0: the BIC gained by fitting it is" in printed
+    assert re.search(r"fx \d+\.\d\d ± \d+\.\d\d  fy", printed)
+    assert "warning: the focal length is not fixed by these 4 photos" in printed
+    saved = load_camera(out)
+    assert "fix_k3" in saved.flags and saved.sigma["fx"] > 0.1 * saved.fx
+    assert saved.warnings and saved.k3_delta_bic < 0
