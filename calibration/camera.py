@@ -160,7 +160,8 @@ class CameraCalibration:
             "board": self.board,
             "flags": list(self.flags),
             "sigma": self.sigma,
-            "k3_delta_bic": self.k3_delta_bic,
+            # null, not NaN, where it was not compared: the file stays strict JSON.
+            "k3_delta_bic": self.k3_delta_bic if np.isfinite(self.k3_delta_bic) else None,
             "warnings": list(self.warnings),
         }
 
@@ -171,7 +172,8 @@ class CameraCalibration:
                    dict(d.get("per_view_rms_px", {})), tuple(d.get("bad_views", ())),
                    tuple(d.get("skipped", ())), dict(d.get("board", {})),
                    tuple(d.get("flags", ())), dict(d.get("sigma", {})),
-                   float(d.get("k3_delta_bic", float("nan"))), tuple(d.get("warnings", ())))
+                   float(d.get("k3_delta_bic") if d.get("k3_delta_bic") is not None
+                         else float("nan")), tuple(d.get("warnings", ())))
 
 
 FLAG_NAMES = {"fix_aspect_ratio": cv2.CALIB_FIX_ASPECT_RATIO,
