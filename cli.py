@@ -626,10 +626,7 @@ def cmd_calibrate_camera(args: argparse.Namespace) -> int:
     flags = ("fix_aspect_ratio",) if args.fix_aspect_ratio else ()
     cal = calibrate_camera(args.images, _board(args), flags, args.k3)
     path = save_camera(args.out, cal)
-    K, sd = cal.camera_matrix, dict(cal.sigma)
-    if "fix_aspect_ratio" in cal.flags:
-        # fx is fy times a held ratio: OpenCV gives its σ as 0, and the shared one as fy's.
-        sd["fx"] = sd.get("fy", np.nan)
+    K, sd = cal.camera_matrix, cal.sigma
     print(f"{len(cal.per_view_rms_px)} views used"
           + (f", board not found in: {', '.join(cal.skipped)}" if cal.skipped else ""))
     print(f"fx {K[0, 0]:.2f} ± {sd.get('fx', np.nan):.2f}  fy {K[1, 1]:.2f} ± "

@@ -35,13 +35,14 @@ from pathlib import Path
 import av
 import cv2
 import numpy as np
+import pandas as pd
 from numpy.typing import NDArray
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import sma_bed_apart as bed
 
 from cranktrack.calibration.camera import Board, calibrate_camera
-from cranktrack.calibration.plane import board_plane
+from cranktrack.calibration.plane import PlaneCalibration, board_plane
 from cranktrack.environment import versions_line
 from cranktrack.pipeline import track_run
 
@@ -57,6 +58,8 @@ BED_BOARD = ((33, 13), 10.0, (4.0, 5.0))
 #: The board photographed for the intrinsics: inner corners and square side (mm).
 VIEW_BOARD = ((9, 6), 12.0)
 VIEWS = 15
+#: px/mm at which the chessboards' plane pictures are drawn.
+BOARD_PX_PER_MM = 8.0
 
 
 @dataclass(frozen=True)
@@ -183,7 +186,7 @@ def view_poses(rng: np.random.Generator, n: int) -> list[Pose]:
 
 def write_view_photos(lens: Lens, folder: Path, rng: np.random.Generator) -> list[Path]:
     """The intrinsics board's photos through ``lens``, as PNG."""
-    scale = 8.0  # px/mm of the board's plane picture
+    scale = BOARD_PX_PER_MM
     picture = chessboard(*VIEW_BOARD, scale)
     paths = []
     for k, pose in enumerate(view_poses(rng, VIEWS)):
@@ -198,7 +201,7 @@ def write_view_photos(lens: Lens, folder: Path, rng: np.random.Generator) -> lis
 def bed_board_photo(lens: Lens, pose: Pose, rng: np.random.Generator) -> NDArray[np.uint8]:
     """The bed-plane board, lying on the bed, photographed by the clip's camera."""
     inner, square, (bx, by) = BED_BOARD
-    scale = 8.0
+    scale = BOARD_PX_PER_MM
     picture = chessboard(inner, square, scale)
     # The picture's origin is the board's corner: shift the plane so it lands at (bx, by).
     shifted = Pose(pose.r, pose.centre - np.array([bx, by, 0.0]))
@@ -293,7 +296,7 @@ def main(argv: list[str] | None = None) -> None:
             report(label, run.tracks, run.kinematics, case)
 
 
-def calibration_alone(plane, lens: Lens, pose: Pose, case: bed.Case) -> None:
+def calibration_alone(plane: PlaneCalibration, lens: Lens, pose: Pose, case: bed.Case) -> None:
     """θ and |AB| from the markers' drawn centres (projected by the bench's own camera,
     no tracking) through ``cranktrack``'s calibration: what the calibration alone costs."""
     truth_deg = np.linspace(*sorted((case.heating.theta0_deg, case.heating.theta1_deg)), 25)
@@ -307,7 +310,7 @@ def calibration_alone(plane, lens: Lens, pose: Pose, case: bed.Case) -> None:
           f"{np.max(np.abs(np.hypot(*ab.T) - bed.L2_MM)):.3f} mm")
 
 
-def report(label: str, tracks, kin, case: bed.Case) -> None:
+def report(label: str, tracks: pd.DataFrame, kin: pd.DataFrame, case: bed.Case) -> None:
     """θ, |AB| and the markers' plane positions against the bed's truth."""
     t = kin["t_s"].to_numpy(float)
     truth_deg, _ = case.heating.theta(t)

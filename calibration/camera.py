@@ -272,12 +272,13 @@ def calibrate_corners(obj: list[NDArray], img: list[NDArray], size: tuple[int, i
     med = float(np.median(list(per_view.values())))
     bad = tuple(n for n, e in per_view.items() if e > BAD_VIEW_FACTOR * med)
     sigma = {n: float(v) for n, v in zip(INTRINSIC_NAMES, sd.ravel(), strict=False)}
+    if "fix_aspect_ratio" in flags:
+        # fx is fy times a held ratio: OpenCV gives fx's σ as 0, and the shared one as fy's.
+        sigma["fx"] = sigma["fy"] * float(K[0, 0] / K[1, 1])
     warnings = ()
-    # With fx = fy imposed OpenCV gives fx's σ as 0 and the shared one as fy's.
-    loose = max(sigma.get("fx", 0.0), sigma.get("fy", 0.0))
-    if loose > LOOSE_FOCAL * K[0, 0]:
+    if sigma["fx"] > LOOSE_FOCAL * K[0, 0]:
         warnings = (f"the focal length is not fixed by these {len(obj)} photos: fx "
-                    f"{K[0, 0]:.1f} ± {loose:.1f} px; take 10-20 photos with the board "
+                    f"{K[0, 0]:.1f} ± {sigma['fx']:.1f} px; take 10-20 photos with the board "
                     "tilted various ways and filling the frame's corners",)
     return CameraCalibration(K, dist.ravel(), size, float(rms), per_view, bad, skipped,
                              board.to_dict(), tuple(flags), sigma, delta_bic, warnings)
