@@ -60,6 +60,7 @@ from .run_folder import (
     record_step,
     run_folder,
 )
+from .tracker.foreshortening import Foreshortening, foreshortening_of
 from .tracker.gaps import fill_gaps
 from .tracker.marker_state import MarkerState
 from .tracker.markers import DEFAULT_MARKERS, MarkerSpec
@@ -315,6 +316,19 @@ def _link_warnings(links: dict[str, dict]) -> list[str]:
     return out
 
 
+def _foreshortening(calibration: PlaneCalibration | None, size: tuple[int, int]
+                    ) -> Foreshortening | None:
+    """How the calibration's plane foreshortens a printed disc over a frame of ``size``
+    px (:mod:`.tracker.foreshortening`); None without a calibration."""
+    if calibration is None:
+        return None
+    try:
+        return foreshortening_of(calibration.to_plane, size)
+    except ValueError as e:
+        raise CranktrackError(f"{e}: it cannot be this camera's view of a plane; "
+                              "calibrate the plane again") from None
+
+
 def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
                 known_length: tuple[str, str, float] | None, specs: tuple[MarkerSpec, ...],
                 window_s: float | None, fill_gaps_frames: int,
@@ -338,9 +352,10 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
         write_csv_atomic(folder / TRACKS, tracks_table(state.rows, specs, state.radii()))
         save_state(state)
 
+    stretch = _foreshortening(calibration, (source.width, source.height))
     try:
         result = track(source, specs, on_frame=on_frame, resume=saved, checkpoint=checkpoint,
-                       span=span, roi=roi)
+                       span=span, roi=roi, foreshortening=stretch)
     except TrackingInterrupted as e:
         if e.state.rows:
             checkpoint(e.state)
@@ -372,6 +387,8 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
                      {"start": span.start, "end": span.end if np.isfinite(span.end) else None,
                       "unit": span.unit},
                      **({} if roi is None else {"roi": [roi.x, roi.y, roi.w, roi.h]}),
+                     **({} if stretch is None else
+                        {"discs_as_ellipses_up_to": round(stretch.most_stretched, 4)}),
                      **({} if not readout_s else {"rolling_shutter_readout_s": readout_s})},
         "warnings": warnings,
     }

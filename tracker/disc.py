@@ -32,16 +32,51 @@ _SQRT_HALF = math.sqrt(0.5)
 _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
 
 
+#: A disc seen square-on: its distance from the centre is the plain one
+#: (:func:`stretch_of`).
+ROUND = (1.0, 0.0, 1.0)
+
+
+def stretch_of(stretch: tuple[float, float, float] | None) -> NDArray[np.float64]:
+    """The disc model's metric ``(g11, g12, g22)`` as the compiled kernels take it.
+
+    A printed disc seen by a camera not square to its plane is an ellipse in the image:
+    its distance from the centre is ``d = √(g11·dx² + 2·g12·dx·dy + g22·dy²)`` (px),
+    with ``g = JᵀJ / |det J|`` for ``J`` the image-to-plane Jacobian there
+    (:mod:`.foreshortening`), whose determinant is 1, so the ellipse's area is still
+    π·r². None is :data:`ROUND`, for which the model is the circle's, bit for bit."""
+    return np.array(ROUND if stretch is None else stretch, np.float64)
+
+
 @njit(cache=True, nogil=True)
-def _disc_point(p: NDArray, x: float, y: float, jrow: NDArray) -> float:
-    """Model value at one pixel; its gradient over (cx, cy, r, s, a, b) into ``jrow``."""
+def _distance(m: NDArray, dx: float, dy: float) -> float:
+    """The disc model's distance (px) of an offset from the centre under the metric ``m``."""
+    if m[1] == 0.0 and m[0] == 1.0 and m[2] == 1.0:
+        return math.sqrt(dx * dx + dy * dy)
+    return math.sqrt(max(m[0] * dx * dx + 2.0 * m[1] * dx * dy + m[2] * dy * dy, 0.0))
+
+
+@njit(cache=True, nogil=True)
+def _rim_distance(m: NDArray, dx: float, dy: float) -> float:
+    """As :func:`_distance`, by ``hypot`` when round: the test of a pixel against the
+    rim was written so, and a round disc's answers stay as they were to the last bit."""
+    if m[1] == 0.0 and m[0] == 1.0 and m[2] == 1.0:
+        return math.hypot(dx, dy)
+    return _distance(m, dx, dy)
+
+
+@njit(cache=True, nogil=True)
+def _disc_point(p: NDArray, x: float, y: float, jrow: NDArray, m: NDArray) -> float:
+    """Model value at one pixel; its gradient over (cx, cy, r, s, a, b) into ``jrow``.
+    ``m`` is the metric of :func:`stretch_of`."""
     dx, dy = x - p[0], y - p[1]
-    d = math.sqrt(dx * dx + dy * dy) + 1e-9
+    d = _distance(m, dx, dy) + 1e-9
     z = (p[2] - d) / p[3]
     phi = 0.5 * (1.0 + math.erf(z * _SQRT_HALF))
     g = (p[4] / p[3]) * _INV_SQRT_2PI * math.exp(-0.5 * z * z)  # a · dΦ/dz / s
-    jrow[0] = g * dx / d
-    jrow[1] = g * dy / d
+    # ∂d/∂cx = −(g11·dx + g12·dy)/d: for the round metric, −dx/d.
+    jrow[0] = g * (m[0] * dx + m[1] * dy) / d
+    jrow[1] = g * (m[1] * dx + m[2] * dy) / d
     jrow[2] = g
     jrow[3] = -g * z
     jrow[4] = phi
@@ -51,14 +86,14 @@ def _disc_point(p: NDArray, x: float, y: float, jrow: NDArray) -> float:
 
 @njit(cache=True, nogil=True)
 def _normal_equations(p: NDArray, X: NDArray, Y: NDArray, A: NDArray, n: int,
-                      JtJ: NDArray, Jtr: NDArray) -> float:
+                      JtJ: NDArray, Jtr: NDArray, m: NDArray) -> float:
     """Fill JᵀJ and Jᵀr at ``p`` over the first ``n`` pixels; return the RSS."""
     jrow = np.empty(6)
     JtJ[:, :] = 0.0
     Jtr[:] = 0.0
     rss = 0.0
     for k in range(n):
-        r = A[k] - _disc_point(p, X[k], Y[k], jrow)
+        r = A[k] - _disc_point(p, X[k], Y[k], jrow, m)
         rss += r * r
         for i in range(6):
             Jtr[i] += jrow[i] * r
@@ -108,6 +143,17 @@ def cho_solve(L: NDArray, b: NDArray) -> NDArray:
 
 
 @njit(cache=True, nogil=True)
+def _reach2(radius: float, m: NDArray) -> float:
+    """Square of how far (px) from the guess a sample enters the disc fit: 3 px past
+    the rim, along the ellipse's longer axis under the metric ``m``."""
+    half_trace = 0.5 * (m[0] + m[2])
+    spread = math.sqrt(0.25 * (m[0] - m[2]) ** 2 + m[1] * m[1])
+    shortest = half_trace - spread  # the metric's smaller eigenvalue: 1 when round
+    longer = radius / math.sqrt(shortest) if shortest > 0.0 else radius
+    return (longer + 3.0) ** 2
+
+
+@njit(cache=True, nogil=True)
 def _in_fit(a: float, dx: float, dy: float, reach2: float) -> bool:
     """Does a sample enter the disc fit: finite, within the window around the guess?"""
     return np.isfinite(a) and dx * dx + dy * dy <= reach2
@@ -116,15 +162,15 @@ def _in_fit(a: float, dx: float, dy: float, reach2: float) -> bool:
 @njit(cache=True, nogil=True)
 def _fit_disc_compiled(alpha: NDArray, x0: float, y0: float, gx: float, gy: float,
                        radius: float, p: NDArray, iterations: int, tol_px: float,
-                       hold_shape: bool = False
+                       hold_shape: bool, m: NDArray
                        ) -> tuple[NDArray, NDArray, float, int, float, bool]:
     """Gauss–Newton of :func:`fit_disc` from ``p``; returns (p, (JᵀJ)⁻¹, RSS,
     pixels used, Σα, whether JᵀJ was positive definite at the end). With
     ``hold_shape`` the radius and edge width stay at ``p``'s: their rows and columns
-    of JᵀJ are those of a parameter that cannot move."""
+    of JᵀJ are those of a parameter that cannot move. ``m``: :func:`stretch_of`."""
     h, w = alpha.shape
     X, Y, A = np.empty(h * w), np.empty(h * w), np.empty(h * w)
-    reach2 = (radius + 3.0) ** 2
+    reach2 = _reach2(radius, m)
     n = 0
     total = 0.0
     for i in range(h):
@@ -141,7 +187,7 @@ def _fit_disc_compiled(alpha: NDArray, x0: float, y0: float, gx: float, gy: floa
     L = np.empty((6, 6))
     rss = np.nan
     for _ in range(iterations):
-        rss = _normal_equations(p, X, Y, A, n, JtJ, Jtr)
+        rss = _normal_equations(p, X, Y, A, n, JtJ, Jtr, m)
         if hold_shape:
             for i in (2, 3):
                 JtJ[i, :] = 0.0
@@ -171,7 +217,8 @@ def _fit_disc_compiled(alpha: NDArray, x0: float, y0: float, gx: float, gy: floa
 
 @njit(cache=True, nogil=True)
 def _sandwich_compiled(alpha: NDArray, x0: float, y0: float, gx: float, gy: float,
-                       radius: float, p: NDArray, inv: NDArray, reach: int) -> float:
+                       radius: float, p: NDArray, inv: NDArray, reach: int, m: NDArray
+                       ) -> float:
     """Per-axis variance of the centre with the residuals of samples up to
     ``reach`` apart taken as correlated (product Bartlett weights, which keep
     the estimate non-negative): Σ w·u_k·u_lᵀ over pairs of samples, where
@@ -179,14 +226,14 @@ def _sandwich_compiled(alpha: NDArray, x0: float, y0: float, gx: float, gy: floa
     h, w = alpha.shape
     u = np.zeros((h, w, 2))
     used = np.zeros((h, w), np.bool_)
-    reach2 = (radius + 3.0) ** 2
+    reach2 = _reach2(radius, m)
     jrow = np.empty(6)
     n = 0
     for i in range(h):
         for j in range(w):
             a, xv, yv = alpha[i, j], x0 + j, y0 + i
             if _in_fit(a, xv - gx, yv - gy, reach2):
-                r = a - _disc_point(p, xv, yv, jrow)
+                r = a - _disc_point(p, xv, yv, jrow, m)
                 for c in range(2):
                     acc = 0.0
                     for k in range(6):
@@ -217,7 +264,7 @@ def _sandwich_compiled(alpha: NDArray, x0: float, y0: float, gx: float, gy: floa
 
 
 def _edge_floored(alpha: NDArray, x0: float, y0: float, gx: float, gy: float, radius: float,
-                  p: NDArray, inv: NDArray, rss: float) -> tuple[NDArray, float]:
+                  p: NDArray, inv: NDArray, rss: float, m: NDArray) -> tuple[NDArray, float]:
     """(JᵀJ)⁻¹ and RSS of a fit ``p`` whose edge ran narrower than :data:`EDGE_MIN`,
     taken with the edge at that width instead (one pass of the normal equations
     there; their step is not taken), so its centre keeps a σ that means something.
@@ -237,13 +284,14 @@ def _edge_floored(alpha: NDArray, x0: float, y0: float, gx: float, gy: float, ra
     at = p.copy()
     at[3] = EDGE_MIN
     _, inv_at, rss_at, _, _, ok = _fit_disc_compiled(alpha, x0, y0, gx, gy, radius, at, 1,
-                                                     np.inf)
+                                                     np.inf, False, m)
     return (inv_at, rss_at) if ok else (inv, rss)
 
 
 def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
              radius: float, iterations: int = 8, tol_px: float = 1e-3,
-             init: tuple[float, ...] | None = None, hold_shape: bool = False) -> Centre:
+             init: tuple[float, ...] | None = None, hold_shape: bool = False,
+             stretch: tuple[float, float, float] | None = None) -> Centre:
     """Gauss–Newton fit of a blurred disc to a coverage patch.
 
     The model is ``b + a·Φ((r − d)/s)`` with ``d`` the distance to the centre
@@ -254,17 +302,20 @@ def fit_disc(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
     previous frame's (r, s, a, b) (or a full parameter tuple) so the fit
     starts near its answer; it stops when the centre moves less than
     ``tol_px``. With ``hold_shape`` the radius and edge width stay at ``init``'s
-    and only the centre, gain and offset are fitted.
+    and only the centre, gain and offset are fitted. ``stretch`` makes the disc the
+    ellipse a camera not square to its plane sees (:func:`stretch_of`; ``d`` is then
+    that metric's distance, and the window reaches 3 px past its longer axis).
     """
     shape = (radius, 0.5, 1.0, 0.0) if init is None else tuple(init)[-4:]
     p0 = np.array([guess[0], guess[1], *shape], dtype=np.float64)
+    m = stretch_of(stretch)
     p, inv, rss, n, total, posdef = _fit_disc_compiled(
         np.asarray(alpha, np.float64), float(x0), float(y0), float(guess[0]),
-        float(guess[1]), float(radius), p0, int(iterations), float(tol_px), hold_shape)
+        float(guess[1]), float(radius), p0, int(iterations), float(tol_px), hold_shape, m)
     if not posdef:
         return Centre(np.nan, np.nan, np.nan, radius, False)
     inv, rss = _edge_floored(np.asarray(alpha, np.float64), float(x0), float(y0),
-                             float(guess[0]), float(guess[1]), float(radius), p, inv, rss)
+                             float(guess[0]), float(guess[1]), float(radius), p, inv, rss, m)
     # As Python floats: this runs several times per marker per frame, and NumPy's
     # calls on scalars cost more than the arithmetic (the same libm functions).
     params = tuple(p.tolist())
@@ -302,7 +353,7 @@ LINE_NEIGHBOURS = 2
 
 @njit(cache=True, nogil=True)
 def _line_pixels(alpha: NDArray, x0: float, y0: float, p: NDArray, drop: float,
-                 neighbours: int) -> tuple[NDArray, int, int]:
+                 neighbours: int, m: NDArray) -> tuple[NDArray, int, int]:
     """Pixels of the disc ``p`` (inside it, or on its blurred rim up to one blur width
     out) whose coverage lies below the model's by more than ``drop`` of its gain, and
     that have at least ``neighbours`` such pixels among their 8; how many, and how
@@ -322,9 +373,9 @@ def _line_pixels(alpha: NDArray, x0: float, y0: float, p: NDArray, drop: float,
             if not np.isfinite(a) or a >= top:
                 continue
             x, y = x0 + j, y0 + i
-            if math.hypot(x - p[0], y - p[1]) > p[2] + p[3]:
+            if _rim_distance(m, x - p[0], y - p[1]) > p[2] + p[3]:
                 continue
-            dark[i, j] = a < _disc_point(p, x, y, jrow) - drop * p[4]
+            dark[i, j] = a < _disc_point(p, x, y, jrow, m) - drop * p[4]
     out = np.zeros((h, w), np.bool_)
     count, inner = 0, 0
     for i in range(h):
@@ -340,13 +391,13 @@ def _line_pixels(alpha: NDArray, x0: float, y0: float, p: NDArray, drop: float,
             if n >= neighbours:
                 out[i, j] = True
                 count += 1
-                if math.hypot(x0 + j - p[0], y0 + i - p[1]) < p[2] - p[3]:
+                if _rim_distance(m, x0 + j - p[0], y0 + i - p[1]) < p[2] - p[3]:
                     inner += 1
     return out, count, inner
 
 
-def line_across(alpha: NDArray, x0: float, y0: float, fit: Centre
-                ) -> NDArray[np.bool_] | None:
+def line_across(alpha: NDArray, x0: float, y0: float, fit: Centre,
+                stretch: tuple[float, float, float] | None = None) -> NDArray[np.bool_] | None:
     """The pixels of ``alpha`` (the patch's top-left pixel at image ``x0``, ``y0``) that
     a thin dark line across the disc ``fit`` covers, inside it and where it crosses
     the rim; None if there is no such line.
@@ -355,6 +406,7 @@ def line_across(alpha: NDArray, x0: float, y0: float, fit: Centre
     rim seems to recede, and the centre moves away from it. On a second renderer's
     SMA bed (bench/sma_bed_apart.py) the wire tied at C's centre moved C by
     0.05 px (RGB) to 0.10 px (4:2:0) along the wire, with a σ of 0.04 px.
+    ``stretch``: the disc is an ellipse under that metric (:func:`stretch_of`).
     """
     if fit.params is None or not fit.ok:
         return None
@@ -366,8 +418,9 @@ def line_across(alpha: NDArray, x0: float, y0: float, fit: Centre
     # cannot follow, leaves lone ones all round), and it crosses the disc, not only its
     # rim: a wire that leaves the marker's edge (tied under it) darkens only the rim's
     # pixels beside it, and the disc is whole.
+    m = stretch_of(stretch)
     dark, count, inner = _line_pixels(np.asarray(alpha, np.float64), float(x0), float(y0),
-                                      p, 1.0 - OCCLUDED_GAIN, LINE_NEIGHBOURS)
+                                      p, 1.0 - OCCLUDED_GAIN, LINE_NEIGHBOURS, m)
     if count < OCCLUDED_MIN_PX or count > OCCLUDED_MAX_FRACTION * math.pi * r * r \
             or inner < OCCLUDED_MIN_PX:
         return None
@@ -386,9 +439,9 @@ def line_across(alpha: NDArray, x0: float, y0: float, fit: Centre
     lo, hi = at[dark].min() - LINE_MARGIN_PX, at[dark].max() + LINE_MARGIN_PX
     # Where the line reaches the rim it goes on beyond it, over the background the
     # coverage was unmixed against: left out to the patch's edge there too.
-    if math.hypot(mx + lo * along[0], my + lo * along[1]) >= r - s:
+    if _rim_distance(m, mx + lo * along[0], my + lo * along[1]) >= r - s:
         lo = -np.inf
-    if math.hypot(mx + hi * along[0], my + hi * along[1]) >= r - s:
+    if _rim_distance(m, mx + hi * along[0], my + hi * along[1]) >= r - s:
         hi = np.inf
     return (off <= max(half, 1.0) + LINE_MARGIN_PX) & (at >= lo) & (at <= hi)
 
@@ -425,29 +478,33 @@ def _cell_means(alpha: NDArray, ox: int, oy: int) -> NDArray:
 
 
 def correlated_sigma(alpha: NDArray, x0: int, y0: int, guess: tuple[float, float],
-                     radius: float, fit: Centre, hold_shape: bool = False) -> Centre:
+                     radius: float, fit: Centre, hold_shape: bool = False,
+                     stretch: tuple[float, float, float] | None = None) -> Centre:
     """``fit`` (a :func:`fit_disc` of ``alpha`` around ``guess`` within ``radius`` + 3 px,
     the patch's top-left pixel at ``x0``, ``y0``) with its σ taken with the residuals of
     samples up to :data:`CELL_REACH` apart as correlated, as :func:`fit_disc_cells` takes
     it: for a frame seen block by block (:mod:`.binned`), whose blocks are a 4:2:0
     frame's chroma cells. Fitted as if each sample's residual were its own, a large disc
     standing still on H.264 came out with σ 0.004 px against an error of 0.02 px. As
-    given where that σ cannot be had."""
+    given where that σ cannot be had. ``stretch``: as :func:`fit_disc`'s."""
+    m = stretch_of(stretch)
     a = np.asarray(alpha, np.float64)
     gx, gy = float(guess[0]), float(guess[1])
     p = np.asarray(fit.params, np.float64)
     _, inv, _, _, _, posdef = _fit_disc_compiled(a, float(x0), float(y0), gx, gy,
-                                                 float(radius), p.copy(), 1, np.inf, hold_shape)
+                                                 float(radius), p.copy(), 1, np.inf, hold_shape,
+                                                 m)
     if not posdef:
         return fit
     var = _sandwich_compiled(a, float(x0), float(y0), gx, gy, float(radius), p, inv,
-                             CELL_REACH)
+                             CELL_REACH, m)
     if not (np.isfinite(var) and var > 0):
         return fit
     return replace(fit, sigma=math.sqrt(var))
 
 
-def fit_disc_cells(alpha: NDArray, x0: int, y0: int, pixel_fit: Centre) -> Centre:
+def fit_disc_cells(alpha: NDArray, x0: int, y0: int, pixel_fit: Centre,
+                   stretch: tuple[float, float, float] | None = None) -> Centre:
     """The centre and σ of :func:`fit_disc` refitted at the chroma's own
     resolution, for 4:2:0 frames.
 
@@ -464,7 +521,8 @@ def fit_disc_cells(alpha: NDArray, x0: int, y0: int, pixel_fit: Centre) -> Centr
     Starts from ``pixel_fit`` (within 0.02 px, as the tracker runs it) and
     keeps its shape, gain, residual and area, which the tracker's checks for
     a whole marker were set on; the pixel fit is returned as it is if the
-    refit fails or lands implausibly far from it.
+    refit fails or lands implausibly far from it. ``stretch``: as :func:`fit_disc`'s
+    (the cells scale both axes alike, so the metric is the same).
     """
     ox, oy = x0 % 2, y0 % 2
     cells = _cell_means(np.asarray(alpha, np.float64), ox, oy)
@@ -473,11 +531,13 @@ def fit_disc_cells(alpha: NDArray, x0: int, y0: int, pixel_fit: Centre) -> Centr
     r, s, gain, offset = pixel_fit.params[-4:]
     # The compiled kernels are called directly: this runs for every marker in
     # every 4:2:0 frame, and fit_disc's checks are the pixel fit's to make.
+    m = stretch_of(stretch)
     p, inv, _, _, _, posdef = _fit_disc_compiled(
-        cells, cx0, cy0, gx, gy, r / 2, np.array([gx, gy, r / 2, s / 2, gain, offset]), 8, 5e-4)
+        cells, cx0, cy0, gx, gy, r / 2, np.array([gx, gy, r / 2, s / 2, gain, offset]), 8, 5e-4,
+        False, m)
     if not posdef:
         return pixel_fit
-    var = _sandwich_compiled(cells, cx0, cy0, gx, gy, r / 2, p, inv, CELL_REACH)
+    var = _sandwich_compiled(cells, cx0, cy0, gx, gy, r / 2, p, inv, CELL_REACH, m)
     x, y = 2 * p[0] + 0.5, 2 * p[1] + 0.5
     if not (np.isfinite(x) and np.isfinite(y) and var > 0 and np.hypot(
             x - pixel_fit.x, y - pixel_fit.y) <= max(0.5, 5.0 * pixel_fit.sigma)):

@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 
 from .centre import Centre
 from .coverage import CHROMA_BASIS, LUMA_BASIS
+from .foreshortening import Foreshortening
 from .lighting import LIGHT_STEP, LUMA_WEIGHTS, light_ratio
 from .markers import AREA_GATE, Blob, MarkerSpec, place_reach
 from .scatter import STAIR_RATIO
@@ -200,6 +201,9 @@ class MarkerState:
     #: of the last, or 0.7 of the one before): how predictable the motion is. None
     #: until a fix was predicted from a velocity.
     surprise_px: float | None = None
+    #: How a round mark on the plane looks in the image (a calibration's, given to
+    #: :func:`.track.track`); None: round everywhere.
+    foreshortening: Foreshortening | None = None
     #: Has it been standing still (:meth:`off_its_place`)?
     resting: bool = False
     #: The last steps between fixes (dx, dy px), up to :data:`REST_STEPS`, while each
@@ -283,7 +287,8 @@ class MarkerState:
         # It stays missed as long as it was: its whole-frame searches keep backing off.
         return MarkerState(spec, rim=False if spec.flat else None, missed=self.missed,
                            notes=notes, first_colour=spec,
-                           false_start=(list(self.learning_frames), float(self.radius)))
+                           false_start=(list(self.learning_frames), float(self.radius)),
+                           foreshortening=self.foreshortening)
 
     def like_false_start(self, radius: float) -> bool:
         """Is a marker found at ``radius`` px after a false start the thing found then
@@ -477,6 +482,14 @@ class MarkerState:
             return False
         self.lit = ratio
         return True
+
+    def stretch_at(self, x: float, y: float) -> tuple[float, float, float] | None:
+        """The disc model's metric at image px (``x``, ``y``) (:func:`.disc.stretch_of`)
+        for a flat marker, printed on the plane the calibration is of; None (round) for
+        one that is not (a ball is round from any side) or without a calibration."""
+        if self.foreshortening is None or not self.spec.flat:
+            return None
+        return self.foreshortening.at(x, y)
 
     @property
     def colour(self) -> NDArray | None:

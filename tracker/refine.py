@@ -79,7 +79,8 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
            marker: NDArray | None = None, init: tuple[float, ...] | None = None,
            edges: bool | None = None, luminance: bool = False, rim: bool | None = None,
            wire: bool = False, hold_shape: bool = False,
-           wire_line: tuple[tuple[float, float], tuple[float, float]] | None = None
+           wire_line: tuple[tuple[float, float], tuple[float, float]] | None = None,
+           stretch: tuple[float, float, float] | None = None
            ) -> tuple[Centre, NDArray | None]:
     """Sub-pixel centre of a marker near ``guess`` (see the module's docstring).
 
@@ -115,12 +116,16 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
     pixels share their colour, is fitted on the frame seen block by block
     (:func:`_refine_binned`), where its σ lets neighbouring blocks share errors
     (:func:`.disc.correlated_sigma`).
+    ``stretch``: a printed disc seen by a camera not square to its plane is an ellipse,
+    whose metric (:func:`.disc.stretch_of`, from :mod:`.foreshortening`) the disc fits,
+    the dark-line search and the chroma-cell refit take. The luminance edge
+    (:func:`.edges.fit_edges`) and the rim's circle stay round.
     Returns the centre and the chroma seen in its middle.
     """
     if radius >= LARGE_RADIUS_PX and isinstance(image, Frame) and not image.full_chroma \
             and not luminance:
         return _refine_binned(image, guess, radius, marker, init, edges, luminance, rim,
-                              wire, hold_shape, wire_line)
+                              wire, hold_shape, wire_line, stretch)
     if rim is True and init is not None:
         # Following a ball: its rim has a coverage of its own, so the disc fit's is
         # not made at all.
@@ -155,7 +160,8 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
         band = _wire_band(alpha.shape, x0, y0, wire_line, init[3], radius)
         whole, alpha = alpha, np.where(band, np.nan, alpha)
         hold = hold or _held_beside_band(guess, wire_line, init[3], radius)
-    fit = fit_disc(alpha, x0, y0, guess, radius, init=init, tol_px=tol, hold_shape=hold)
+    fit = fit_disc(alpha, x0, y0, guess, radius, init=init, tol_px=tol, hold_shape=hold,
+                   stretch=stretch)
     for _ in range(3):
         # The background ring must be centred on the marker; a guess more than
         # half a pixel off (a prediction when the motion changes) is redone.
@@ -168,7 +174,7 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
             band = _wire_band(alpha.shape, x0, y0, wire_line, init[3], radius)
             whole, alpha = alpha, np.where(band, np.nan, alpha)
         fit = fit_disc(alpha, x0, y0, guess, radius, init=fit.params, tol_px=tol,
-                       hold_shape=hold)
+                       hold_shape=hold, stretch=stretch)
     if fit.ok and not hold and not wire:
         # Not for the crank-slider's printed discs: on clips with no markers, soft patches
         # of their colours were then taken for them more often, and on its bed filmed out
@@ -176,19 +182,19 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
         fit, alpha, patch, x0, y0, radius = _soft_refit(image, fit, alpha, patch, x0, y0,
                                                         radius,
                                                         seen if marker is None else marker,
-                                                        luminance, tol, unit)
+                                                        luminance, tol, unit, stretch)
     if band is not None and fit.ok:
         # The checks of a whole marker compare its visible area with its usual, which
         # counts the wire's band too (as for a line found across it, below).
         fit = replace(fit, area=fit.area + _band_area(whole, band, x0, y0, guess, radius))
     fitted = alpha
-    hidden, start = (_line_across(alpha, x0, y0, fit, init) if wire and band is None
+    hidden, start = (_line_across(alpha, x0, y0, fit, init, stretch) if wire and band is None
                      else (None, fit.params))
     if hidden is not None:
         # A wire or thread across the disc: fitted again without its pixels.
         clear = np.where(hidden, np.nan, alpha)
         again = fit_disc(clear, x0, y0, guess, radius, init=start, tol_px=tol,
-                         hold_shape=hold)
+                         hold_shape=hold, stretch=stretch)
         if again.ok:
             # The marker's visible area is all its coverage, the line's pixels too:
             # the checks for a covered marker compare it with its usual.
@@ -197,9 +203,9 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
         fit = fit_edges(patch, fitted, x0, y0, fit, radius) or fit
     elif fit.ok and cells:
         # The decoder's own 4:2:0 planes: the chroma is refitted where it was stored.
-        fit = fit_disc_cells(fitted, x0, y0, fit)
+        fit = fit_disc_cells(fitted, x0, y0, fit, stretch)
     elif fit.ok and isinstance(image, BinnedFrame):
-        fit = correlated_sigma(fitted, x0, y0, guess, radius, fit, hold)
+        fit = correlated_sigma(fitted, x0, y0, guess, radius, fit, hold, stretch)
     if fit.ok:
         return replace(fit, peak=core_peak(alpha, x0, y0, fit)), seen
     if rim is None:
@@ -221,7 +227,8 @@ def _unit_px(image: Frame | BinnedFrame | NDArray) -> float:
 def _refine_binned(frame: Frame, guess: tuple[float, float], radius: float,
                    marker: NDArray | None, init: tuple[float, ...] | None, edges: bool | None,
                    luminance: bool, rim: bool | None, wire: bool, hold_shape: bool,
-                   wire_line: tuple[tuple[float, float], tuple[float, float]] | None
+                   wire_line: tuple[tuple[float, float], tuple[float, float]] | None,
+                   stretch: tuple[float, float, float] | None = None
                    ) -> tuple[Centre, NDArray | None]:
     """:func:`refine` of a large marker on ``frame`` seen block by block
     (:class:`.binned.BinnedFrame`), everything in px mapped there and back: the centre,
@@ -240,7 +247,7 @@ def _refine_binned(frame: Frame, guess: tuple[float, float], radius: float,
                           None if init is None else shape_in(tuple(init)), edges, luminance,
                           rim, wire, hold_shape,
                           None if wire_line is None else (point_in(wire_line[0]),
-                                                          point_in(wire_line[1])))
+                                                          point_in(wire_line[1])), stretch)
     p = centre.params
     return replace(centre, x=from_bins(centre.x), y=from_bins(centre.y),
                    sigma=2 * centre.sigma, radius=2 * centre.radius, area=4 * centre.area,
@@ -362,7 +369,9 @@ def _band_area(alpha: NDArray, band: NDArray, x0: int, y0: int,
 
 
 def _line_across(alpha: NDArray, x0: int, y0: int, fit: Centre,
-                 init: tuple[float, ...] | None) -> tuple[NDArray | None, tuple | None]:
+                 init: tuple[float, ...] | None,
+                 stretch: tuple[float, float, float] | None = None
+                 ) -> tuple[NDArray | None, tuple | None]:
     """A thin dark line across the disc ``fit`` (:func:`.disc.line_across`), and the
     parameters to fit again from without it.
 
@@ -375,11 +384,11 @@ def _line_across(alpha: NDArray, x0: int, y0: int, fit: Centre,
     across A (bench/sma_bed_apart.py, 176→160°), A's fit had grown to a radius of
     10.8–13.1 px (10.5 whole) with the wire 5–7 px from its centre, and A was up to
     0.8 px off."""
-    hidden = line_across(alpha, x0, y0, fit)
+    hidden = line_across(alpha, x0, y0, fit, stretch)
     if init is None or len(init) < 4 or fit.params is None:
         return hidden, fit.params
     learned = (fit.x, fit.y, *tuple(init)[-4:-2], *fit.params[4:6])
-    by_shape = line_across(alpha, x0, y0, replace(fit, params=learned))
+    by_shape = line_across(alpha, x0, y0, replace(fit, params=learned), stretch)
     if by_shape is not None and (hidden is None or by_shape.sum() > hidden.sum()):
         return by_shape, learned
     return hidden, fit.params
@@ -416,7 +425,8 @@ def _rim(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, flo
 
 def _soft_refit(image: Frame | BinnedFrame | NDArray[np.uint8], fit: Centre, alpha: NDArray,
                 patch: NDArray, x0: int, y0: int, radius: float, marker: NDArray | None,
-                luminance: bool, tol: float, unit: float = 1.0
+                luminance: bool, tol: float, unit: float = 1.0,
+                stretch: tuple[float, float, float] | None = None
                 ) -> tuple[Centre, NDArray, NDArray, int, int, float]:
     """A soft-edged disc (out of focus) fitted again with its fading edge in the window.
 
@@ -427,7 +437,8 @@ def _soft_refit(image: Frame | BinnedFrame | NDArray[np.uint8], fit: Centre, alp
     of 12 to 29 px from one frame to the next, gains up to 14). Laid again to
     :data:`SOFT_REACH` edge widths past the fitted rim. Returns the fit, its coverage,
     patch, patch origin and window radius (px): as given where the disc is not soft.
-    ``unit``: the frame px one of ``image``'s spans (:func:`.coverage.local_coverage`).
+    ``unit``: the frame px one of ``image``'s spans (:func:`.coverage.local_coverage`);
+    ``stretch`` as :func:`refine`'s.
     """
     r, s = fit.params[2], fit.params[3]
     wide = r + SOFT_REACH * s - 2.0 / unit  # the coverage reaches 2 px past its window
@@ -436,7 +447,8 @@ def _soft_refit(image: Frame | BinnedFrame | NDArray[np.uint8], fit: Centre, alp
         return fit, alpha, patch, x0, y0, radius
     patch_w, xw, yw = patch_around(image, fit.x, fit.y, wide + 9)
     alpha_w, _ = local_coverage(patch_w, xw, yw, (fit.x, fit.y), wide, marker, luminance, unit)
-    again = fit_disc(alpha_w, xw, yw, (fit.x, fit.y), wide, init=fit.params, tol_px=tol)
+    again = fit_disc(alpha_w, xw, yw, (fit.x, fit.y), wide, init=fit.params, tol_px=tol,
+                     stretch=stretch)
     if not again.ok:
         return fit, alpha, patch, x0, y0, radius
     # The checks of a whole marker compare its area and residual with its usual,

@@ -26,6 +26,7 @@ from ..errors import CranktrackError
 from ..tables import tracker_columns
 from .centre import Centre
 from .coverage import local_coverage
+from .foreshortening import Foreshortening
 from .lighting import LIGHT_SURE, light_change, lighting_notes
 from .marker_state import (
     KEEP_MOTION_MISSED,
@@ -152,7 +153,7 @@ def _held_at(frame: Frame, state: MarkerState, at: tuple[float, float], reach: f
     :func:`.refine.refine` (held, a disc out of focus leaves the wire's band out too)."""
     centre, seen = refine(frame, at, state.radius, state.colour, init=state.shape,
                           luminance=luminance, rim=False, wire=state.spec.flat,
-                          hold_shape=True, wire_line=wire_line)
+                          hold_shape=True, wire_line=wire_line, stretch=state.stretch_at(*at))
     if not (np.hypot(centre.x - at[0], centre.y - at[1]) <= reach
             and centre.gain > HELD_CLEAR * centre.rms_residual):
         return None
@@ -313,7 +314,7 @@ def _followed(frame: Frame, state: MarkerState, pred: tuple[float, float],
         return centre, seen, False, _plausible(centre, pred, state)
     centre, seen = refine(frame, pred, state.radius, state.colour, init=state.shape,
                           luminance=luminance, rim=state.rim, wire=state.spec.flat,
-                          wire_line=wire_line)
+                          wire_line=wire_line, stretch=state.stretch_at(*pred))
     plausible = _plausible(centre, pred, state)
     again = None if plausible else _held_fit(frame, state, pred, luminance, wire_line)
     if again is None:
@@ -505,7 +506,8 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
         centre, seen = _blob_centre(frame, state, (blob.x, blob.y), 2.0)
         return _whole_and_honest(state, centre, seen)
     centre, seen = refine(frame, (blob.x, blob.y), radius, state.colour, luminance=luminance,
-                          rim=state.rim, wire=state.spec.flat)
+                          rim=state.rim, wire=state.spec.flat,
+                          stretch=state.stretch_at(blob.x, blob.y))
     if (state.rim is None or state.spec.flat) and centre.ok:
         # A flat marker's coverage is even over its middle; a shaded ball's falls
         # away from the light, and pulls a disc fit toward it: that one is centred
@@ -594,7 +596,8 @@ def _whole_or_refitted(frame: Frame, state: MarkerState, centre: Centre,
         return first
     again, seen_again = refine(frame, (centre.x, centre.y), radius, state.colour,
                                init=(centre.x, centre.y, *state.shape[2:]),
-                               luminance=luminance, rim=state.rim, wire=state.spec.flat)
+                               luminance=luminance, rim=state.rim, wire=state.spec.flat,
+                               stretch=state.stretch_at(centre.x, centre.y))
     second = _whole_and_honest(state, again, seen_again, nearer) if again.ok else first
     return second if not second[2] else first
 
@@ -1053,6 +1056,7 @@ def track(
     checkpoint_every: int = 250,
     span: Span | None = None,
     roi: Roi | None = None,
+    foreshortening: Foreshortening | None = None,
 ) -> TrackResult:
     """Find every marker in every frame of ``source`` (within ``span``, if given), in
     the part of each frame ``roi`` says (the whole frame by default).
@@ -1062,6 +1066,9 @@ def track(
     ``_status`` (a key of :data:`STATUSES`). A marker found in no frame is
     still a column (all NaN); ``found_fraction`` says so and the caller
     decides what to tell the user.
+
+    ``foreshortening`` (from the plane's calibration, :mod:`.foreshortening`) makes the
+    flat markers' disc fits ellipses, as a camera not square to the plane sees them.
 
     ``resume`` continues from a saved :class:`TrackerState` (frames up to its
     last one are decoded but not tracked again); ``checkpoint(state)`` is
@@ -1084,6 +1091,10 @@ def track(
             "them")
     cut = None if roi is None else roi.inside((source.width, source.height))
     state = resume or TrackerState.start(_within(specs, cut))
+    for st in state.markers:
+        # Set on a resumed run too: it is this run's calibration, not the saved one's.
+        st.foreshortening = (foreshortening if foreshortening is None or cut is None
+                             else foreshortening.shifted(cut[0], cut[1]))
     done = state.last_frame
     span = span or Span()
     said = len(source.problems)  # what reading the frames says is added after these
