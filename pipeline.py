@@ -205,6 +205,8 @@ def track_run(
         raise CranktrackError(f"unknown table format {table_format!r}; use csv or parquet")
     source = open_frames(video, fps=fps)
     _check_before_tracking(source, specs, known_length, calibration, window_s, readout_s)
+    # Refused here too, before a folder is made: a calibration no camera could give.
+    stretch = _foreshortening(calibration, (source.width, source.height))
     folder = ensure_dir(out_dir)
     with claimed(folder):
         if not resume:
@@ -212,7 +214,8 @@ def track_run(
         try:
             result = _track_into(folder, source, video, known_length, specs, window_s,
                                  fill_gaps_frames, calibration, resume, on_start, on_frame,
-                                 span, roi, on_stage or (lambda stage: None), readout_s)
+                                 span, roi, on_stage or (lambda stage: None), readout_s,
+                                 stretch)
             if table_format == "parquet":
                 result.files["tracks_parquet"] = write_parquet_atomic(
                     folder / TRACKS_PARQUET, result.tracks)
@@ -337,8 +340,9 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
                 on_frame: Callable[[int], None] | None, span: Span | None = None,
                 roi: Roi | None = None,
                 on_stage: Callable[[str], None] = lambda stage: None,
-                readout_s: float = 0.0) -> RunResult:
-    """:func:`track_run`'s work, in a folder it holds."""
+                readout_s: float = 0.0, stretch: Foreshortening | None = None) -> RunResult:
+    """:func:`track_run`'s work, in a folder it holds; ``stretch``: how the calibration's
+    plane foreshortens a printed disc (:func:`_foreshortening`)."""
     if on_start:
         on_start(source.expected_frames)
     state_path = folder / TRACKER_STATE
@@ -352,7 +356,6 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
         write_csv_atomic(folder / TRACKS, tracks_table(state.rows, specs, state.radii()))
         save_state(state)
 
-    stretch = _foreshortening(calibration, (source.width, source.height))
     try:
         result = track(source, specs, on_frame=on_frame, resume=saved, checkpoint=checkpoint,
                        span=span, roi=roi, foreshortening=stretch)

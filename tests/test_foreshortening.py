@@ -117,3 +117,54 @@ def test_the_round_metric_leaves_the_disc_fit_as_it_was_to_the_last_bit():
     plain = fit_disc(alpha, 0, 0, (20.0, 22.0), 12.0)
     given = fit_disc(alpha, 0, 0, (20.0, 22.0), 12.0, stretch=(1.0, 0.0, 1.0))
     assert plain == given
+
+
+def _plane_file(path, homography: np.ndarray, size: tuple[int, int]):
+    from cranktrack.calibration.file import save_calibration
+    from cranktrack.calibration.plane import PlaneCalibration
+
+    return save_calibration(path, PlaneCalibration("points", homography, size))
+
+
+def test_a_calibration_that_folds_the_frame_is_one_sentence_before_any_folder(
+        small_h264, tmp_path, capsys):
+    from cranktrack.cli import main
+
+    # Its horizon (w = 0) runs across the frame's row 120: no camera sees a plane so.
+    h = np.array([[0.1, 0.0, 0.0], [0.0, 0.1, 0.0], [0.0, 0.01, -1.2]])
+    cal = _plane_file(tmp_path / "plane.json", h, (320, 240))
+    assert main(["track", str(small_h264.video), "--out", str(tmp_path / "run"),
+                 "--calibration", str(cal)]) == 1
+    err = capsys.readouterr().err
+    assert "folds or flattens" in err and err.count("\n") == 1
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_run_with_a_perspective_calibration_says_how_stretched_its_discs_are(
+        small_h264, tmp_path):
+    import json
+
+    from cranktrack.pipeline import track_run
+
+    # A homography whose scale grows by 10 % along x over the 320 px frame: discs on
+    # the right are seen squashed along x against those on the left.
+    w = 0.1 / 320
+    h = np.array([[0.2, 0.0, 0.0], [0.0, 0.2, 0.0], [w, 0.0, 1.0]])
+    from cranktrack.calibration.file import load_calibration
+
+    cal = load_calibration(_plane_file(tmp_path / "plane.json", h, (320, 240)), (320, 240))
+    track_run(small_h264.video, tmp_path / "run", calibration=cal)
+    said = json.loads((tmp_path / "run" / "run.json").read_text())["tracking"]
+    # x' = 0.2x/D, y' = 0.2y/D with D = 1 + wx: J = 0.2/D²·[[1, 0], [−wy, D]], whose
+    # singular values' ratio is the ellipse's axes' (largest at a right-hand corner).
+    ratios = []
+    for x in (0.0, 319.0):
+        for y in (0.0, 239.0):
+            sv = np.linalg.svd(np.array([[1.0, 0.0], [-w * y, 1 + w * x]]), compute_uv=False)
+            ratios.append(sv[0] / sv[1])
+    assert said["discs_as_ellipses_up_to"] == pytest.approx(max(ratios), abs=2e-4)
+    flat = load_calibration(_plane_file(tmp_path / "flat.json", np.diag([0.2, 0.2, 1.0]),
+                                        (320, 240)), (320, 240))
+    track_run(small_h264.video, tmp_path / "flat", calibration=flat)
+    said = json.loads((tmp_path / "flat" / "run.json").read_text())["tracking"]
+    assert said["discs_as_ellipses_up_to"] == pytest.approx(1.0, abs=1e-9)
