@@ -11,14 +11,15 @@ Here every picture is made by code written apart from ``cranktrack``: the bed of
 bed's plane), a pinhole camera with a radial lens written out below (:class:`Lens`),
 pitched ``--tilt`` degrees and turned a quarter of that sideways, and chessboards
 drawn in their own planes and seen through the same lens. The clip is coded as H.264
-4:2:0. ``cranktrack`` then calibrates the camera from the board photos and the plane
-from the board lying on the bed, tracks the clip with that calibration and, apart,
-with the A–C length alone (a scale for a camera square to the bed), and the bench
-prints against the bed's truth: θ's RMS error and mean, the crank's length |AB|
-(24.1 mm, Table 2.3) and its spread, and the markers' plane positions in mm.
+4:2:0 (``--rgb``: lossless RGB, the tracker's full-colour path). ``cranktrack`` then
+calibrates the camera from the board photos and the plane from the board lying on the
+bed, tracks the clip with that calibration and, apart, with the A–C length alone (a
+scale for a camera square to the bed), and the bench prints against the bed's truth:
+θ's RMS error and mean, the crank's length |AB| (24.1 mm, Table 2.3) and its spread,
+and the markers' plane positions in mm.
 
     .venv/bin/python bench/tilted_bed.py [--tilt 20] [--k1 -0.15] [--case 0] [--k3 auto]
-                                         [--keep DIR]
+                                         [--rgb] [--keep DIR]
 """
 
 from __future__ import annotations
@@ -210,8 +211,9 @@ def bed_board_photo(lens: Lens, pose: Pose, rng: np.random.Generator) -> NDArray
 
 
 def render_clip(path: Path, lens: Lens, pose: Pose, case: bed.Case, seconds: float,
-                fps: float, seed: int) -> None:
-    """The bed's clip through the camera, H.264 4:2:0 crf 20."""
+                fps: float, seed: int, rgb: bool = False) -> None:
+    """The bed's clip through the camera, H.264 4:2:0 crf 20; with ``rgb``, lossless RGB
+    (every pixel its own colour: the tracker's full-chroma path)."""
     rng = np.random.default_rng(seed)
     background = bed.board(np.random.default_rng(1000 + seed))
     s = CAMERA_SUPERSAMPLE
@@ -220,10 +222,12 @@ def render_clip(path: Path, lens: Lens, pose: Pose, case: bed.Case, seconds: flo
     maps = camera_maps(lens, pose, bed.SIZE, fine, (bed.SUPERSAMPLE - 1) / 2, s)
     n = round(seconds * fps)
     with av.open(str(path), mode="w") as out:
-        stream = out.add_stream("libx264", rate=Fraction(fps).limit_denominator(1001))
+        stream = out.add_stream("libx264rgb" if rgb else "libx264",
+                                rate=Fraction(fps).limit_denominator(1001))
         stream.width, stream.height = bed.SIZE
-        stream.pix_fmt = "yuv420p"
-        stream.options = {"crf": "20", "preset": "fast", "x264-params": "mbtree=0"}
+        stream.pix_fmt = "rgb24" if rgb else "yuv420p"
+        stream.options = ({"qp": "0", "preset": "fast"} if rgb else
+                          {"crf": "20", "preset": "fast", "x264-params": "mbtree=0"})
         for k in range(n):
             t = k / fps
             times = [t] if case.exposure_s <= 0 else t + case.exposure_s * (
@@ -256,6 +260,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--fps", type=float, default=30.0)
     ap.add_argument("--k3", choices=("auto", "free", "fixed"), default="auto",
                     help="what cranktrack's camera calibration does with k3 (its --k3)")
+    ap.add_argument("--rgb", action="store_true",
+                    help="code the clip as lossless RGB instead of H.264 4:2:0")
     ap.add_argument("--keep", type=Path, help="keep the pictures and runs in this folder")
     args = ap.parse_args(argv)
     print(f"libraries: {versions_line()}")
@@ -266,7 +272,7 @@ def main(argv: list[str] | None = None) -> None:
     pose = Pose.looking_at(mid, rotation(args.tilt, args.tilt / 4), DISTANCE_MM)
     print(f"{case.name}; camera {bed.SIZE[0]}×{bed.SIZE[1]}, f {lens.f:.0f} px, k1 {lens.k1:g}, "
           f"pitched {args.tilt:g}° and turned {args.tilt / 4:g}°, {DISTANCE_MM:g} mm from the "
-          f"bed; H.264 crf 20, noise {bed.NOISE_DN:g} DN")
+          f"bed; {'lossless RGB' if args.rgb else 'H.264 crf 20'}, noise {bed.NOISE_DN:g} DN")
     with tempfile.TemporaryDirectory() as tmp:
         where = args.keep or Path(tmp)
         where.mkdir(parents=True, exist_ok=True)
@@ -285,9 +291,9 @@ def main(argv: list[str] | None = None) -> None:
               f"{args.k3}), reprojection RMS {camera.rms_px:.3f} px; the board on "
               f"the bed: homography residual {plane.quality['homography_rms_px']:.3f} px")
         calibration_alone(plane, lens, pose, case)
-        video = where / f"tilted_{args.case}_{args.seed}.mp4"
+        video = where / f"tilted_{args.case}_{args.seed}{'_rgb' * args.rgb}.mp4"
         if not video.exists():
-            render_clip(video, lens, pose, case, args.seconds, args.fps, args.seed)
+            render_clip(video, lens, pose, case, args.seconds, args.fps, args.seed, args.rgb)
         for label, kw in (("camera + plane calibration", {"calibration": plane}),
                           ("the A–C length alone", {})):
             out = where / ("run_" + label.split()[0].replace("–", ""))
