@@ -168,3 +168,33 @@ def test_a_run_with_a_perspective_calibration_says_how_stretched_its_discs_are(
     track_run(small_h264.video, tmp_path / "flat", calibration=flat)
     said = json.loads((tmp_path / "flat" / "run.json").read_text())["tracking"]
     assert said["discs_as_ellipses_up_to"] == pytest.approx(1.0, abs=1e-9)
+
+
+def test_the_luminance_edge_of_a_foreshortened_disc_is_fitted_along_its_ellipse():
+    # Full-colour pixels: a red disc on a grey board, the disc seen 35° from square;
+    # the luminance edge refit (edges.fit_edges) starts from the chroma fit.
+    from cranktrack.tracker.edges import fit_edges
+
+    squash = 0.82
+    turn = math.radians(-40.0)
+    rot = np.array([[math.cos(turn), -math.sin(turn)], [math.sin(turn), math.cos(turn)]])
+    a = 0.1 * rot @ np.diag([1.0, 1.0 / squash]) @ rot.T
+    centre = (24.61, 23.28)
+    cover = _drawn_disc(a, centre, 1.0)  # 10 px
+    board, red = np.array([120.0, 120.0, 120.0]), np.array([200.0, 40.0, 40.0])
+    rgb = (board + cover[..., None] * (red - board)).round().clip(0, 255).astype(np.uint8)
+    stretch = foreshortening_of(_affine(a), (48, 48)).at(*centre)
+    guess = (centre[0] - 0.3, centre[1] + 0.5)
+    chroma = fit_disc(cover, 0, 0, guess, 9.0, stretch=stretch)
+    ellipse = fit_edges(rgb, cover, 0, 0, chroma, 9.0, stretch=stretch)
+    circle = fit_edges(rgb, cover, 0, 0, fit_disc(cover, 0, 0, guess, 9.0), 9.0)
+    # Given the round edge, the same chroma fit is pulled 0.3 px off (0.4 px from the
+    # round chroma fit): the sectors' edges are taken where a circle's would be.
+    round_edges = fit_edges(rgb, cover, 0, 0, chroma, 9.0)
+    assert ellipse is not None
+    assert math.hypot(ellipse.x - centre[0], ellipse.y - centre[1]) < 0.02
+    for off in (round_edges, circle):
+        assert off is None or math.hypot(off.x - centre[0], off.y - centre[1]) > 0.1
+    # Its σ is the scatter the 8-bit rounding leaves, not a circle's misfit.
+    assert ellipse.sigma < 0.01
+    assert circle is None or circle.sigma > 5 * ellipse.sigma

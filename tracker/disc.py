@@ -49,18 +49,24 @@ def stretch_of(stretch: tuple[float, float, float] | None) -> NDArray[np.float64
 
 
 @njit(cache=True, nogil=True)
+def is_round(m: NDArray) -> bool:
+    """Is the metric ``m`` the round one (:data:`ROUND`)?"""
+    return m[1] == 0.0 and m[0] == 1.0 and m[2] == 1.0
+
+
+@njit(cache=True, nogil=True)
 def _distance(m: NDArray, dx: float, dy: float) -> float:
     """The disc model's distance (px) of an offset from the centre under the metric ``m``."""
-    if m[1] == 0.0 and m[0] == 1.0 and m[2] == 1.0:
+    if is_round(m):
         return math.sqrt(dx * dx + dy * dy)
     return math.sqrt(max(m[0] * dx * dx + 2.0 * m[1] * dx * dy + m[2] * dy * dy, 0.0))
 
 
 @njit(cache=True, nogil=True)
-def _rim_distance(m: NDArray, dx: float, dy: float) -> float:
+def rim_distance(m: NDArray, dx: float, dy: float) -> float:
     """As :func:`_distance`, by ``hypot`` when round: the test of a pixel against the
     rim was written so, and a round disc's answers stay as they were to the last bit."""
-    if m[1] == 0.0 and m[0] == 1.0 and m[2] == 1.0:
+    if is_round(m):
         return math.hypot(dx, dy)
     return _distance(m, dx, dy)
 
@@ -373,7 +379,7 @@ def _line_pixels(alpha: NDArray, x0: float, y0: float, p: NDArray, drop: float,
             if not np.isfinite(a) or a >= top:
                 continue
             x, y = x0 + j, y0 + i
-            if _rim_distance(m, x - p[0], y - p[1]) > p[2] + p[3]:
+            if rim_distance(m, x - p[0], y - p[1]) > p[2] + p[3]:
                 continue
             dark[i, j] = a < _disc_point(p, x, y, jrow, m) - drop * p[4]
     out = np.zeros((h, w), np.bool_)
@@ -391,7 +397,7 @@ def _line_pixels(alpha: NDArray, x0: float, y0: float, p: NDArray, drop: float,
             if n >= neighbours:
                 out[i, j] = True
                 count += 1
-                if _rim_distance(m, x0 + j - p[0], y0 + i - p[1]) < p[2] - p[3]:
+                if rim_distance(m, x0 + j - p[0], y0 + i - p[1]) < p[2] - p[3]:
                     inner += 1
     return out, count, inner
 
@@ -439,9 +445,9 @@ def line_across(alpha: NDArray, x0: float, y0: float, fit: Centre,
     lo, hi = at[dark].min() - LINE_MARGIN_PX, at[dark].max() + LINE_MARGIN_PX
     # Where the line reaches the rim it goes on beyond it, over the background the
     # coverage was unmixed against: left out to the patch's edge there too.
-    if _rim_distance(m, mx + lo * along[0], my + lo * along[1]) >= r - s:
+    if rim_distance(m, mx + lo * along[0], my + lo * along[1]) >= r - s:
         lo = -np.inf
-    if _rim_distance(m, mx + hi * along[0], my + hi * along[1]) >= r - s:
+    if rim_distance(m, mx + hi * along[0], my + hi * along[1]) >= r - s:
         hi = np.inf
     return (off <= max(half, 1.0) + LINE_MARGIN_PX) & (at >= lo) & (at <= hi)
 

@@ -15,7 +15,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from .centre import Centre
-from .disc import cho_solve, cholesky
+from .disc import cho_solve, cholesky, is_round, rim_distance, stretch_of
 
 # Where each pixel stores its own colour (RGB, 4:4:4), the marker's edge is
 # also seen in luminance, with most of the information about where it is
@@ -69,16 +69,17 @@ def _edge(t: float, a: float, b: float, s: float, gx: NDArray, gw: NDArray
 
 @njit(cache=True, nogil=True)
 def _clean_sectors(lum: NDArray, X: NDArray, Y: NDArray, cx: float, cy: float, r: float,
-                   sectors: int) -> NDArray:
+                   sectors: int, mt: NDArray) -> NDArray:
     """Sectors whose luminance is flat just outside (r + 1.5…5 px) and inside (r − 4…2 px)
-    the edge, and whose neighbours' is too: scatter at most twice the median sector's."""
+    the edge (distances under the disc's metric ``mt``, :func:`.disc.stretch_of`), and
+    whose neighbours' is too: scatter at most twice the median sector's."""
     sd = np.zeros((2, sectors))
     for band in range(2):
         lo, hi = (r + 1.5, r + 5.0) if band == 0 else (r - 4.0, r - 2.0)
         n, s1, s2 = np.zeros(sectors), np.zeros(sectors), np.zeros(sectors)
         for i in range(lum.shape[0]):
             for j in range(lum.shape[1]):
-                d = math.hypot(X[j] - cx, Y[i] - cy)
+                d = rim_distance(mt, X[j] - cx, Y[i] - cy)
                 if lo <= d <= hi:
                     k = int((math.atan2(Y[i] - cy, X[j] - cx) + math.pi)
                             / (2.0 * math.pi) * sectors) % sectors
@@ -102,8 +103,11 @@ def _clean_sectors(lum: NDArray, X: NDArray, Y: NDArray, cx: float, cy: float, r
 @njit(cache=True, nogil=True)
 def _fit_edges_compiled(rgb: NDArray, alpha: NDArray, x0: float, y0: float, p: NDArray,
                         radius: float, chroma_rms: float, sectors: int, gx: NDArray,
-                        gw: NDArray, iterations: int) -> tuple[float, float, float, int]:
-    """:func:`fit_edges`: (cx, cy, per-axis σ, sectors used); σ NaN when it failed."""
+                        gw: NDArray, iterations: int, mt: NDArray
+                        ) -> tuple[float, float, float, int]:
+    """:func:`fit_edges`: (cx, cy, per-axis σ, sectors used); σ NaN when it failed.
+    ``mt``: the disc's metric (:func:`.disc.stretch_of`)."""
+    round_ = is_round(mt)
     h, w = alpha.shape
     X, Y = x0 + np.arange(w).astype(np.float64), y0 + np.arange(h).astype(np.float64)
     lum = np.empty((h, w))
@@ -112,7 +116,7 @@ def _fit_edges_compiled(rgb: NDArray, alpha: NDArray, x0: float, y0: float, p: N
             # The grey axis of the chroma basis: noise σ as one channel's.
             lum[i, j] = (float(rgb[i, j, 0]) + rgb[i, j, 1] + rgb[i, j, 2]) / math.sqrt(3.0)
     cx, cy, r = p[0], p[1], p[2]
-    clean = _clean_sectors(lum, X, Y, cx, cy, r, sectors)
+    clean = _clean_sectors(lum, X, Y, cx, cy, r, sectors, mt)
     slot = np.full(sectors, -1)
     m = 0
     for k in range(sectors):
@@ -130,7 +134,7 @@ def _fit_edges_compiled(rgb: NDArray, alpha: NDArray, x0: float, y0: float, p: N
     cnt = np.zeros((2, m))
     for i in range(h):
         for j in range(w):
-            d = math.hypot(X[j] - cx, Y[i] - cy)
+            d = rim_distance(mt, X[j] - cx, Y[i] - cy)
             if np.isfinite(alpha[i, j]) and d <= radius + 3.0:
                 PX[n], PY[n], PV[n], grp[n] = X[j], Y[i], alpha[i, j], -1
                 n += 1
@@ -161,8 +165,18 @@ def _fit_edges_compiled(rgb: NDArray, alpha: NDArray, x0: float, y0: float, p: N
         rss_c = rss_l = 0.0
         for u in range(n):
             dx, dy = PX[u] - q[0], PY[u] - q[1]
-            d = math.sqrt(dx * dx + dy * dy) + 1e-9
-            c, dt, ds = _edge(q[2] - d, abs(dx) / d, abs(dy) / d, q[3], gx, gw)
+            if round_:
+                d = math.sqrt(dx * dx + dy * dy) + 1e-9
+                slope, nx, ny = 1.0, dx / d, dy / d
+            else:
+                # An ellipse: d is the metric's distance; the edge's normal is along
+                # ∇d = G·(dx, dy)/d, and a pixel's distance from the edge in px is
+                # (r − d)/|∇d| near it.
+                ux, uy = mt[0] * dx + mt[1] * dy, mt[1] * dx + mt[2] * dy
+                d = math.sqrt(max(dx * ux + dy * uy, 0.0)) + 1e-9
+                norm = math.sqrt(ux * ux + uy * uy) + 1e-12
+                slope, nx, ny = norm / d, ux / norm, uy / norm
+            c, dt, ds = _edge((q[2] - d) / slope, abs(nx), abs(ny), q[3], gx, gw)
             k = grp[u]
             if k < 0:
                 amp, base, wt = q[4], q[5], wc
@@ -175,7 +189,7 @@ def _fit_edges_compiled(rgb: NDArray, alpha: NDArray, x0: float, y0: float, p: N
                 jr[4], jr[5] = 1.0 - c, c
             g = amp * dt
             idx[0], idx[1], idx[2], idx[3] = 0, 1, 2, 3
-            jr[0], jr[1], jr[2], jr[3] = g * dx / d, g * dy / d, g, amp * ds
+            jr[0], jr[1], jr[2], jr[3] = g * nx, g * ny, g / slope, amp * ds
             res = PV[u] - (base + amp * c)
             if k < 0:
                 rss_c += res * res
@@ -212,8 +226,8 @@ def _fit_edges_compiled(rgb: NDArray, alpha: NDArray, x0: float, y0: float, p: N
 
 
 def fit_edges(patch_rgb: NDArray, alpha: NDArray, x0: float, y0: float, chroma_fit: Centre,
-              radius: float, sectors: int = EDGE_SECTORS, iterations: int = 16
-              ) -> Centre | None:
+              radius: float, sectors: int = EDGE_SECTORS, iterations: int = 16,
+              stretch: tuple[float, float, float] | None = None) -> Centre | None:
     """Refine a chroma disc fit with the luminance of the edge's clean sectors.
 
     One weighted least-squares fit of the chroma coverage ``alpha`` over the
@@ -228,13 +242,16 @@ def fit_edges(patch_rgb: NDArray, alpha: NDArray, x0: float, y0: float, chroma_f
     see :attr:`Frame.full_chroma`. Returns None (use the chroma fit) when
     fewer than 4 sectors are clean or the fit fails; shape fields (radius,
     gain, params, area) are the chroma fit's, to warm-start the next frame.
+    ``stretch``: the disc is the ellipse of that metric (:func:`.disc.stretch_of`), its
+    edge a straight one along its normal there.
     """
     if chroma_fit.params is None or not chroma_fit.ok:
         return None
     x, y, sigma, _ = _fit_edges_compiled(
         np.asarray(patch_rgb), np.asarray(alpha, np.float64), float(x0), float(y0),
         np.asarray(chroma_fit.params, np.float64), float(radius),
-        float(chroma_fit.rms_residual), int(sectors), _GH_X, _GH_W, int(iterations))
+        float(chroma_fit.rms_residual), int(sectors), _GH_X, _GH_W, int(iterations),
+        stretch_of(stretch))
     # A joint fit far from the chroma one has been misled (something grey moved
     # under the edge after the sectors were chosen): trust the chroma fit.
     if not np.isfinite(sigma) or np.hypot(x - chroma_fit.x, y - chroma_fit.y) > max(

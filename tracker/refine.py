@@ -118,8 +118,8 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
     (:func:`.disc.correlated_sigma`).
     ``stretch``: a printed disc seen by a camera not square to its plane is an ellipse,
     whose metric (:func:`.disc.stretch_of`, from :mod:`.foreshortening`) the disc fits,
-    the dark-line search and the chroma-cell refit take. The luminance edge
-    (:func:`.edges.fit_edges`) and the rim's circle stay round.
+    the dark-line search, the chroma-cell refit and the luminance edge
+    (:func:`.edges.fit_edges`) take. The rim's circle (a ball's) stays round.
     Returns the centre and the chroma seen in its middle.
     """
     if radius >= LARGE_RADIUS_PX and isinstance(image, Frame) and not image.full_chroma \
@@ -200,7 +200,7 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
             # the checks for a covered marker compare it with its usual.
             fit, fitted = replace(again, area=fit.area), clear
     if fit.ok and edges:
-        fit = fit_edges(patch, fitted, x0, y0, fit, radius) or fit
+        fit = fit_edges(patch, fitted, x0, y0, fit, radius, stretch=stretch) or fit
     elif fit.ok and cells:
         # The decoder's own 4:2:0 planes: the chroma is refitted where it was stored.
         fit = fit_disc_cells(fitted, x0, y0, fit, stretch)
