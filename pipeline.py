@@ -206,7 +206,7 @@ def track_run(
     source = open_frames(video, fps=fps)
     _check_before_tracking(source, specs, known_length, calibration, window_s, readout_s)
     # Refused here too, before a folder is made: a calibration no camera could give.
-    stretch = _foreshortening(calibration, (source.width, source.height))
+    foreshortening = _foreshortening(calibration, (source.width, source.height))
     folder = ensure_dir(out_dir)
     with claimed(folder):
         if not resume:
@@ -215,7 +215,7 @@ def track_run(
             result = _track_into(folder, source, video, known_length, specs, window_s,
                                  fill_gaps_frames, calibration, resume, on_start, on_frame,
                                  span, roi, on_stage or (lambda stage: None), readout_s,
-                                 stretch)
+                                 foreshortening)
             if table_format == "parquet":
                 result.files["tracks_parquet"] = write_parquet_atomic(
                     folder / TRACKS_PARQUET, result.tracks)
@@ -340,8 +340,9 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
                 on_frame: Callable[[int], None] | None, span: Span | None = None,
                 roi: Roi | None = None,
                 on_stage: Callable[[str], None] = lambda stage: None,
-                readout_s: float = 0.0, stretch: Foreshortening | None = None) -> RunResult:
-    """:func:`track_run`'s work, in a folder it holds; ``stretch``: how the calibration's
+                readout_s: float = 0.0, foreshortening: Foreshortening | None = None
+                ) -> RunResult:
+    """:func:`track_run`'s work, in a folder it holds; ``foreshortening``: how the calibration's
     plane foreshortens a printed disc (:func:`_foreshortening`)."""
     if on_start:
         on_start(source.expected_frames)
@@ -358,7 +359,7 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
 
     try:
         result = track(source, specs, on_frame=on_frame, resume=saved, checkpoint=checkpoint,
-                       span=span, roi=roi, foreshortening=stretch)
+                       span=span, roi=roi, foreshortening=foreshortening)
     except TrackingInterrupted as e:
         if e.state.rows:
             checkpoint(e.state)
@@ -390,8 +391,8 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
                      {"start": span.start, "end": span.end if np.isfinite(span.end) else None,
                       "unit": span.unit},
                      **({} if roi is None else {"roi": [roi.x, roi.y, roi.w, roi.h]}),
-                     **({} if stretch is None else
-                        {"discs_as_ellipses_up_to": round(stretch.most_stretched, 4)}),
+                     **({} if foreshortening is None else
+                        {"discs_as_ellipses_up_to": round(foreshortening.most_stretched, 4)}),
                      **({} if not readout_s else {"rolling_shutter_readout_s": readout_s})},
         "warnings": warnings,
     }

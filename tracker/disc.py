@@ -35,6 +35,7 @@ _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
 #: A disc seen square-on: its distance from the centre is the plain one
 #: (:func:`stretch_of`).
 ROUND = (1.0, 0.0, 1.0)
+_ROUND_METRIC = np.array(ROUND, np.float64)
 
 
 def stretch_of(stretch: tuple[float, float, float] | None) -> NDArray[np.float64]:
@@ -45,7 +46,10 @@ def stretch_of(stretch: tuple[float, float, float] | None) -> NDArray[np.float64
     with ``g = JᵀJ / |det J|`` for ``J`` the image-to-plane Jacobian there
     (:mod:`.foreshortening`), whose determinant is 1, so the ellipse's area is still
     π·r². None is :data:`ROUND`, for which the model is the circle's, bit for bit."""
-    return np.array(ROUND if stretch is None else stretch, np.float64)
+    # None is every fit without a calibration, several per marker per frame: the one
+    # array (no kernel writes to it; left writable, so the kernels compile for one
+    # array type), rather than a new one each time.
+    return _ROUND_METRIC if stretch is None else np.array(stretch, np.float64)
 
 
 @njit(cache=True, nogil=True)
