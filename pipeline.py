@@ -35,7 +35,12 @@ from .files import (
     write_parquet_atomic,
     write_text_atomic,
 )
-from .kinematics.measured import LINK_JUMP_SIGMA, LINK_WANDER, measure_kinematics
+from .kinematics.measured import (
+    LINK_JUMP_SIGMA,
+    LINK_WANDER,
+    link_wanders,
+    measure_kinematics,
+)
 from .kinematics.rolling_shutter import at_frame_times
 from .run_folder import (
     CALIBRATION,
@@ -310,12 +315,14 @@ def _link_warnings(links: dict[str, dict]) -> list[str]:
                        f"by more than {LINK_JUMP_SIGMA:g}σ from its median (rigid_ok is false "
                        "there)")
     for k, link in links.items():
-        if link["std_over_sigma"] > LINK_WANDER:
-            out.append(
-                f"the rigid length {k[:2]} varies by {link['std']:.3f} mm (1σ) over the "
-                f"run, {link['std_over_sigma']:.1f}× what the markers' σ allow; the "
-                "camera may be tilted or the lens distorting (calibrate them: "
-                "cranktrack calibrate)")
+        if not link_wanders(link):
+            continue
+        how = (f"{link['std_over_sigma']:.1f}× what the markers' σ allow"
+               if link["std_over_sigma"] > LINK_WANDER else
+               "slowly, as the mechanism moves, not from frame to frame")
+        out.append(f"the rigid length {k[:2]} varies by {link['std']:.3f} mm (1σ) over "
+                   f"the run, {how}; the camera may be tilted or the lens distorting "
+                   "(calibrate them: cranktrack calibrate)")
     return out
 
 

@@ -173,6 +173,24 @@ def _rigid_links(tracks: pd.DataFrame) -> dict[str, _Link]:
 #: σ allow is reported (``std_over_sigma`` in the links summary).
 LINK_WANDER = 2.0
 
+#: A rigid link whose deviations change this little from frame to frame against
+#: their spread wanders slowly (their Durbin–Watson statistic, ``durbin_watson`` in
+#: the links summary: 2 for white noise). On the spool and SMA scenes at 640×360,
+#: |AB|'s was 0.76–1.83 filmed square-on and 0.08–0.72 with the camera tilted 5–10°
+#: (three and two seeds); |AC|'s went down to 0.26 square-on, but its spread stayed
+#: under the points' median σ. So a slow link is reported only when its spread also
+#: exceeds that σ (:func:`link_wanders`): a still rig's errors are all slow, but tiny.
+LINK_SLOW_DW = 0.4
+
+
+def link_wanders(summary: dict[str, float | int]) -> bool:
+    """Whether a rigid link's summary (:func:`_link_summary`) shows a wander a tilted
+    camera or a distorting lens would cause: a spread of over :data:`LINK_WANDER`
+    times the points' σ, or a slow one (:data:`LINK_SLOW_DW`) over their median σ."""
+    return bool(summary["std_over_sigma"] > LINK_WANDER
+                or (summary["durbin_watson"] < LINK_SLOW_DW
+                    and summary["std_over_median_sigma"] > 1.0))
+
 
 #: Ratio of a link's mean square deviation to its σ² above which it shows an
 #: excess: two standard errors (√(2/31)) of a mean over :data:`SCALE_WINDOW`.
@@ -279,7 +297,25 @@ def _link_summary(link: _Link) -> dict[str, float | int]:
             # not square to the plane or a lens that distorts bends it as the
             # mechanism moves.
             "std_over_sigma": float(np.nanstd(link.length)
-                                    / np.sqrt(np.nanmean(link.sigma**2)))}
+                                    / np.sqrt(np.nanmean(link.sigma**2))),
+            # A few frames of large σ lift the RMS above; the median is the σ of most.
+            "std_over_median_sigma": float(np.nanstd(link.length) / np.nanmedian(link.sigma)),
+            # Slow against frame-to-frame change: a tilt bends a link smoothly as the
+            # mechanism moves, while each frame's noise is new. Over the frames where
+            # the link is measured, in order.
+            "durbin_watson": _durbin_watson(link.deviation)}
+
+
+def _durbin_watson(deviation: np.ndarray) -> float:
+    """The Durbin–Watson statistic of a link's deviations (NaN frames left out):
+    about 2 for independent errors, near 0 for a slow drift; NaN under 3 frames."""
+    d = deviation[np.isfinite(deviation)]
+    if d.size < 3 or not np.any(d - d.mean()):
+        return float("nan")
+    e = d - d.mean()
+    # statsmodels.stats.stattools.durbin_watson is this line; importing it costs
+    # 1.2 s at the end of every `track`.
+    return float(np.sum(np.diff(e) ** 2) / np.sum(e**2))
 
 
 def repeated_rows(tracks: pd.DataFrame) -> NDArray[np.bool_]:

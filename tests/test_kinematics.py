@@ -8,7 +8,12 @@ import pandas as pd
 import pytest
 
 from cranktrack.kinematics.differentiate import choose_window, local_polynomial
-from cranktrack.kinematics.measured import crank_angle, link_excess, measure_kinematics
+from cranktrack.kinematics.measured import (
+    crank_angle,
+    link_excess,
+    link_wanders,
+    measure_kinematics,
+)
 from cranktrack.loop.compare import compare_spool, fit_percent
 from cranktrack.pipeline import track_run
 from cranktrack.synthetic.scenarios import SpoolScenario
@@ -271,6 +276,39 @@ def test_link_excess_finds_the_marker_whose_error_the_sigma_misses():
     ex = {m: np.median(v[80:160]) for m, v in link_excess(tracks).items()}
     assert ex["A"] > 2e-4, ex
     assert 3e-4 < ex["A"] + ex["B"] + ex["C"] < 2e-3, ex
+
+
+def test_a_link_bent_slowly_by_a_tilt_is_told_even_within_twice_its_sigma():
+    # Truth written here: a camera tilted t about the plane's x axis, taken for a
+    # square-on one, sees y shrunk by cos t, so |AB| = 30·√(cos²φ + cos²t·sin²φ)
+    # changes smoothly with the crank's angle. At 10° over φ 60–100° its spread is
+    # about 1.5× the link's σ: under the 2× that alone raised the warning. The σ
+    # are 3× the points' frame-to-frame noise, as the tracker's were on the tilted
+    # render of test_calibration_truth.py (|AB|: 0.045 mm against 0.017).
+    from cranktrack.pipeline import _link_warnings
+
+    white = _crank_tracks(4)
+    _, info = measure_kinematics(white)
+    for link in info.links.values():  # independent errors: 2, within 3 of its ±2/√240
+        assert abs(link["durbin_watson"] - 2.0) < 3 * 2 / np.sqrt(240), link
+        assert not link_wanders(link)
+    tilted = _crank_tracks(4, sigma_mm=0.005)
+    tilted[[f"{m}_sigma_mm" for m in "ABC"]] = 0.015
+    tilted["B_y_mm"] *= np.cos(np.radians(10.0))
+    _, info = measure_kinematics(tilted)
+    ab = info.links["L2_mm"]
+    assert 1.2 < ab["std_over_sigma"] < 2.0, ab
+    assert ab["durbin_watson"] < 0.4 and link_wanders(ab), ab
+    assert not link_wanders(info.links["L1_mm"])
+    (said,) = [w for w in _link_warnings(info.links) if "varies" in w]
+    assert said.startswith("the rigid length L2 varies") and "slowly" in said
+    # A still rig: every error is slow (the same pixels each frame), but far under σ.
+    still, rng = _crank_tracks(5), np.random.default_rng(6)
+    for m, xy in (("A", (0.0, 0.0)), ("B", (15.0, 26.0)), ("C", (160.8, 0.0))):
+        still[[f"{m}_x_mm", f"{m}_y_mm"]] = np.array(xy) + _slow_error(rng, len(still), 0.004)
+    _, info = measure_kinematics(still)
+    ab = info.links["L2_mm"]
+    assert ab["durbin_watson"] < 0.4 and not link_wanders(ab), ab
 
 
 def test_link_excess_ignores_a_lone_glitch():
