@@ -37,7 +37,9 @@ def main() -> None:
     ap.add_argument("--k1", type=float, default=-0.2)
     args = ap.parse_args()
     size = (1280, 720)
-    folder = CACHE / f"calib_tilt{args.tilt:g}_k1{args.k1:g}"
+    # "_ellipses": since stop 60 the renderer draws each disc through the camera (an
+    # ellipse when tilted); the older cache's discs were circles in the ideal image.
+    folder = CACHE / f"calib_tilt{args.tilt:g}_k1{args.k1:g}_ellipses"
     scenario = SpoolScenario()
     cam = scenario_camera(scenario, size, tilt_deg=args.tilt, k1=args.k1)
     scene = folder / "scene"

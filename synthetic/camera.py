@@ -93,6 +93,10 @@ class Camera:
         """No lens: nothing to bend."""
         return ideal
 
+    def canvas_to_plane(self, offset: tuple[float, float]) -> None:
+        """None: straight overhead a disc is a circle, so shapes are drawn in px."""
+        return None
+
     def to_dict(self) -> dict:
         """Plain parameters for ``scene.json``."""
         d = asdict(self)
@@ -110,8 +114,8 @@ class PinholeCamera:
     ``k1``, ``k2`` are OpenCV's radial distortion coefficients (k1 < 0:
     barrel). Rendering draws in the ideal image (:meth:`ideal_project`,
     :meth:`local_scale`) and then bends it through the lens (:meth:`warp`);
-    markers are drawn as circles at their projected centres, so a tilted
-    camera's slight ellipticity of a disc (axis ratio cos tilt) is ignored.
+    everything on the plane (discs, bars, the wire) is drawn through
+    :meth:`canvas_to_plane`, so a tilted camera sees a disc as the ellipse it is.
     """
 
     width: int
@@ -165,6 +169,12 @@ class PinholeCamera:
         xy = np.asarray(xy_mm, float)
         h = np.concatenate([xy, np.ones((*xy.shape[:-1], 1))], axis=-1) @ self._homography().T
         return h[..., :2] / h[..., 2:3]
+
+    def canvas_to_plane(self, offset: tuple[float, float]) -> NDArray[np.float64]:
+        """Homography from the ideal canvas (drawn with ``offset``, px, see
+        :meth:`ideal_canvas`) back to the plane (mm)."""
+        shift = np.array([[1.0, 0.0, offset[0]], [0.0, 1.0, offset[1]], [0.0, 0.0, 1.0]])
+        return np.linalg.inv(shift @ self._homography())
 
     def project(self, xy_mm: ArrayLike) -> NDArray[np.float64]:
         """Plane points (mm) to the image as the lens bends it (px)."""

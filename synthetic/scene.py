@@ -110,19 +110,26 @@ def _expose(scenario: Scenario, camera: Camera | PinholeCamera, settings: Render
     if settings.readout_s > 0:
         motion = _rolling(scenario, camera, settings, times, motion)
     canvas, offset = camera.ideal_canvas()
+    to_plane = camera.canvas_to_plane(offset)
     img = None
     for j in range(len(times)):
-        pts = {k: camera.ideal_project(v[j]) + np.asarray(offset)
-               for k, v in motion.points_mm.items()}
-        scales = {k: float(camera.local_scale(v[j])) for k, v in motion.points_mm.items()}
+        if to_plane is not None:  # drawn on the plane: discs seen as the camera sees them
+            frame = render_frame(
+                {k: v[j] for k, v in motion.points_mm.items()}, canvas, 1.0, style,
+                wires=[(a[j], b[j]) for a, b in motion.wires_mm] if motion.wires_mm else None,
+                bars=[(a[j], b[j]) for a, b in motion.bars_mm], to_plane=to_plane)
+        else:
+            pts = {k: camera.ideal_project(v[j]) + np.asarray(offset)
+                   for k, v in motion.points_mm.items()}
+            scales = {k: float(camera.local_scale(v[j])) for k, v in motion.points_mm.items()}
 
-        def project(segments, j=j):
-            return [(camera.ideal_project(a[j]) + np.asarray(offset),
-                     camera.ideal_project(b[j]) + np.asarray(offset)) for a, b in segments]
+            def project(segments, j=j):
+                return [(camera.ideal_project(a[j]) + np.asarray(offset),
+                         camera.ideal_project(b[j]) + np.asarray(offset)) for a, b in segments]
 
-        frame = render_frame(pts, canvas, scales, style,
-                             wires=project(motion.wires_mm) if motion.wires_mm else None,
-                             bars=project(motion.bars_mm))
+            frame = render_frame(pts, canvas, scales, style,
+                                 wires=project(motion.wires_mm) if motion.wires_mm else None,
+                                 bars=project(motion.bars_mm))
         img = frame if img is None else img + frame
     img /= np.float32(len(times))
     mid = scenario.motion(np.array([t]))

@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from cranktrack.synthetic.camera import Camera
+from cranktrack.synthetic.camera import Camera, PinholeCamera
 from cranktrack.synthetic.render import Style, capsule_coverage, render_frame, to_uint8
 from cranktrack.synthetic.scenarios import SpoolScenario
 from cranktrack.synthetic.video import VideoWriter
@@ -59,6 +59,43 @@ def test_rendered_marker_centroid_matches_camera_projection():
         est = np.array([(w * xx).sum(), (w * yy).sum()]) / w.sum()
         # 8-bit rounding of the edge pixels leaves a few thousandths of a pixel.
         assert np.hypot(*(est - pts["B"])) < 0.01
+
+
+@pytest.mark.parametrize("tilt", [0.0, 10.0, 35.0])
+def test_a_tilted_camera_draws_a_disc_as_the_ellipse_it_sees(tilt):
+    # A disc of 6 mm on the plane, drawn through a pinhole tilted about the image's
+    # x axis. Two truths written here, apart from the drawing:
+    # - analytic: where the optical axis meets the plane, the image is squashed
+    #   across the tilt axis by cos(tilt), to first order in the disc's size;
+    # - the circle's rim sent forward through the camera (4000 points) bounds a
+    #   polygon whose area and centroid the coverage must have.
+    cam = PinholeCamera.framing(640, 360, [-80.0, -80.0], [170.0, 80.0], tilt_deg=tilt)
+    to_plane = cam.canvas_to_plane((0.0, 0.0))
+    R = 6.0
+    for where, analytic in ((np.array(cam.target_mm), True), (np.array([150.0, 60.0]), False)):
+        c = cam.ideal_project(where)
+        xs = np.arange(int(c[0]) - 30, int(c[0]) + 31, dtype=float)
+        ys = np.arange(int(c[1]) - 30, int(c[1]) + 31, dtype=float)
+        cov = capsule_coverage(xs, ys, where, where, R, 4, to_plane).astype(float)
+        X, Y = np.meshgrid(xs, ys)
+        area = cov.sum()
+        centroid = np.array([(cov * X).sum(), (cov * Y).sum()]) / area
+        phi = np.linspace(0, 2 * np.pi, 4001)[:-1]
+        rim = cam.ideal_project(where + R * np.stack([np.cos(phi), np.sin(phi)], 1))
+        x, y = rim[:, 0], rim[:, 1]
+        x2, y2 = np.roll(x, -1), np.roll(y, -1)
+        cross = x * y2 - x2 * y
+        poly_area = cross.sum() / 2
+        poly_centroid = np.array([((x + x2) * cross).sum(), ((y + y2) * cross).sum()]) / (
+            6 * poly_area)
+        assert area == pytest.approx(abs(poly_area), rel=5e-4)
+        np.testing.assert_allclose(centroid, poly_centroid, atol=0.003)
+        if analytic:
+            m = np.cov(np.stack([X.ravel(), Y.ravel()]), aweights=cov.ravel(), bias=True)
+            ev, vec = np.linalg.eigh(m)
+            assert np.sqrt(ev[0] / ev[1]) == pytest.approx(np.cos(np.radians(tilt)), abs=2e-3)
+            if tilt:
+                assert abs(vec[1, 0]) > 0.999  # the short axis is the image's y
 
 
 def test_camera_framing_centres_the_motion_and_flips_y():
