@@ -177,7 +177,7 @@ LINK_WANDER = 2.0
 #: their spread wanders slowly (their Durbin–Watson statistic, ``durbin_watson`` in
 #: the links summary: 2 for white noise). On the spool and SMA scenes at 640×360,
 #: |AB|'s was 0.76–1.83 filmed square-on and 0.08–0.72 with the camera tilted 5–10°
-#: (three and two seeds); |AC|'s went down to 0.26 square-on, but its spread stayed
+#: (three seeds, two); |AC|'s went down to 0.26 square-on, but its spread stayed
 #: under the points' median σ. So a slow link is reported only when its spread also
 #: exceeds that σ (:func:`link_wanders`): a still rig's errors are all slow, but tiny.
 LINK_SLOW_DW = 0.4
