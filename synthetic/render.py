@@ -10,8 +10,8 @@ centroid of a noise-free marker within a few thousandths of a pixel of the
 truth (tested in ``tests/test_render.py``).
 
 A camera that is tilted to the plane sees a printed disc as an ellipse, and a
-bar's width shrinks with its distance. :func:`render_plane` draws for such a
-camera: each sub-sample is traced back onto the mechanism's plane through the
+bar's width shrinks with its distance. :func:`render_frame` with ``to_plane``
+draws for such a camera: each sub-sample is traced back onto the mechanism's plane through the
 camera's homography and the shape is measured there, in mm, so a disc is the
 exact image of a circle on the plane (as :mod:`.board` draws a chessboard).
 
