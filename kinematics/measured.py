@@ -303,18 +303,18 @@ def _travel_sigma(dBx: Derivatives, dBy: Derivatives) -> tuple[np.ndarray, np.nd
 def _link_summary(link: _Link) -> dict[str, float | int]:
     """How rigid one link measured: its median, spread and range (mm), and the
     frames flagged as jumps."""
+    std = float(np.nanstd(link.length))
     return {"median": float(np.nanmedian(link.length)),
-            "std": float(np.nanstd(link.length)),
+            "std": std,
             "range": float(np.nanmax(link.length) - np.nanmin(link.length)),
             "frames_flagged": int(np.sum(link.jump & np.isfinite(link.length))),
             # The spread against what the points' σ allow: about 1 for a rigid
             # link tracked as the σ say (0.7–1.1 on the H.264 renders); a camera
             # not square to the plane or a lens that distorts bends it as the
             # mechanism moves.
-            "std_over_sigma": float(np.nanstd(link.length)
-                                    / np.sqrt(np.nanmean(link.sigma**2))),
+            "std_over_sigma": float(std / np.sqrt(np.nanmean(link.sigma**2))),
             # A few frames of large σ lift the RMS above; the median is the σ of most.
-            "std_over_median_sigma": float(np.nanstd(link.length) / np.nanmedian(link.sigma)),
+            "std_over_median_sigma": float(std / np.nanmedian(link.sigma)),
             # Slow against frame-to-frame change: a tilt bends a link smoothly as the
             # mechanism moves, while each frame's noise is new. Over the frames where
             # the link is measured, in order.
@@ -333,9 +333,9 @@ def _durbin_watson(deviation: np.ndarray) -> float:
     """The Durbin–Watson statistic of a link's deviations (NaN frames left out):
     about 2 for independent errors, near 0 for a slow drift; NaN under 3 frames."""
     d = deviation[np.isfinite(deviation)]
-    if d.size < 3 or not np.any(d - d.mean()):
+    e = d - d.mean() if d.size else d
+    if e.size < 3 or not np.any(e):
         return float("nan")
-    e = d - d.mean()
     # statsmodels.stats.stattools.durbin_watson is this line; importing it costs
     # 1.2 s at the end of every `track`.
     return float(np.sum(np.diff(e) ** 2) / np.sum(e**2))
