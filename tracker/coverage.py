@@ -74,6 +74,11 @@ def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float
     return alpha, seen
 
 
+#: A pixel this much (px) nearer or farther than the middle's edge in its squared
+#: distance is inside or outside it whatever the rounding (which is ~1e-13 px here).
+MIDDLE_MARGIN_PX = 0.01
+
+
 @njit(cache=True, nogil=True)
 def _bilinear(P: NDArray, x: float, y: float, out: NDArray) -> None:
     """Add P sampled at (x, y) (bilinear, edges replicated) to ``out`` (2,)."""
@@ -101,9 +106,18 @@ def _coverage_compiled(rgb: NDArray, basis: NDArray, cx: float, cy: float, radiu
                               + basis[c, 2] * rgb[i, j, 2])
     inner_x, inner_y = np.empty(h * w), np.empty(h * w)
     n_inner = 0
+    # ``hypot`` is exact and slow (it was a quarter of this kernel's time on yupi's rover
+    # clip): a pixel clearly inside or outside, by its squared distance with a margin
+    # far beyond any rounding, is decided without it; the rest as before, to the bit.
+    middle = 0.6 * radius
+    surely_in = max(middle - MIDDLE_MARGIN_PX, 0.0) ** 2
+    surely_out = (middle + MIDDLE_MARGIN_PX) ** 2
     for i in range(h):
         for j in range(w):
-            if math.hypot(j - cx, i - cy) + 1e-6 <= 0.6 * radius:
+            q = (j - cx) * (j - cx) + (i - cy) * (i - cy)
+            if q > surely_out:
+                continue
+            if q < surely_in or math.hypot(j - cx, i - cy) + 1e-6 <= middle:
                 inner_x[n_inner] = P[i, j, 0]
                 inner_y[n_inner] = P[i, j, 1]
                 n_inner += 1
