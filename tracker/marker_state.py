@@ -12,6 +12,15 @@ from numpy.typing import NDArray
 
 from .centre import Centre
 from .coverage import CHROMA_BASIS, LUMA_BASIS
+from .ellipse import (
+    SHAPE_FRAMES,
+    SHAPE_MIN_RADIUS_PX,
+    SHAPE_REACH_RADII,
+    axis_ratio,
+    long_axis_deg,
+    metric_of,
+    settled_metric,
+)
 from .foreshortening import Foreshortening
 from .lighting import LIGHT_STEP, LUMA_WEIGHTS, light_ratio
 from .markers import AREA_GATE, Blob, MarkerSpec, place_reach
@@ -204,6 +213,14 @@ class MarkerState:
     #: How a round mark on the plane looks in the image (a calibration's, given to
     #: :func:`.track.track`); None: round everywhere.
     foreshortening: Foreshortening | None = None
+    #: Without a calibration, a printed disc's ellipse (:mod:`.ellipse`): the shape
+    #: terms (u, v) measured on its resting fixes, while fewer than
+    #: :data:`.ellipse.SHAPE_FRAMES`; then the settled ones (None: round), and where
+    #: they were measured (px), from which frame on (``shape_from``, -1 until settled).
+    shapes_seen: list[tuple[float, float]] = field(default_factory=list)
+    ellipse: tuple[float, float] | None = None
+    ellipse_at: tuple[float, float] | None = None
+    shape_from: int = -1
     #: Has it been standing still (:meth:`off_its_place`)?
     resting: bool = False
     #: The last steps between fixes (dx, dy px), up to :data:`REST_STEPS`, while each
@@ -487,9 +504,43 @@ class MarkerState:
         """The disc model's metric at image px (``x``, ``y``) (:func:`.disc.stretch_of`)
         for a flat marker, printed on the plane the calibration is of; None (round) for
         one that is not (a ball is round from any side) or without a calibration."""
-        if self.foreshortening is None or not self.spec.flat:
+        if not self.spec.flat:
             return None
-        return self.foreshortening.at(x, y)
+        if self.foreshortening is not None:
+            return self.foreshortening.at(x, y)
+        if self.ellipse is not None and self.ellipse_at is not None and self.radius \
+                and math.hypot(x - self.ellipse_at[0], y - self.ellipse_at[1]) \
+                <= SHAPE_REACH_RADII * self.radius:
+            return metric_of(*self.ellipse)
+        return None
+
+    def measuring_shape(self) -> bool:
+        """Is its ellipse still to be measured on this fix (:mod:`.ellipse`): a printed
+        disc of :data:`.ellipse.SHAPE_MIN_RADIUS_PX` or more, without a calibration, at
+        rest, not yet settled?"""
+        return (self.spec.flat and self.foreshortening is None and self.shape_from < 0
+                and self.resting and not self.rim
+                and (self.radius or 0.0) >= SHAPE_MIN_RADIUS_PX)
+
+    def saw_shape(self, u: float, v: float, x: float, y: float, frame: int) -> None:
+        """Take the shape terms measured on a resting fix at (``x``, ``y``) px in
+        ``frame``; settle them after :data:`.ellipse.SHAPE_FRAMES` fixes."""
+        self.shapes_seen.append((u, v))
+        if len(self.shapes_seen) < SHAPE_FRAMES:
+            return
+        self.ellipse = settled_metric(self.shapes_seen)
+        self.ellipse_at, self.shape_from = (x, y), frame
+        if self.ellipse is not None:
+            eu, ev = self.ellipse
+            first = frame - len(self.shapes_seen) + 1
+            self.notes.append(
+                f"marker {self.spec.name}: standing still from frame {first} it was seen "
+                f"as an ellipse (axes {axis_ratio(eu, ev):.3f} : 1, the longer "
+                f"at {long_axis_deg(eu, ev):.0f}° from +x): the camera is not square to the "
+                f"rig; from frame {frame + 1} it is fitted as that ellipse within "
+                f"{SHAPE_REACH_RADII:.0f} radii of there. A plane calibration "
+                "(`cranktrack calibrate plane`) would say the shape everywhere, and map "
+                "the plane too")
 
     @property
     def colour(self) -> NDArray | None:

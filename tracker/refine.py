@@ -110,7 +110,7 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
     ``wire_line``: the crank-slider's wire's ends, B and C (px); a followed printed disc
     it crosses (A), or one of its ends out of focus (edge :data:`BAND_EDGE_PX` or
     more), is fitted without the band the wire and its shadow darken
-    (:func:`_wire_band`), at the wire's ends with its shape held where that band is
+    (:func:`wire_band`), at the wire's ends with its shape held where that band is
     widest (:func:`_held_beside_band`).
     A marker of :data:`LARGE_RADIUS_PX` or more, found by its colour in a frame whose
     pixels share their colour, is fitted on the frame seen block by block
@@ -157,7 +157,7 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
     if wire and wire_line is not None and init is not None and len(init) >= 4 \
             and _off_line(guess, wire_line) <= radius \
             and (init[3] >= BAND_EDGE_PX or not _at_wire_end(guess, wire_line, radius)):
-        band = _wire_band(alpha.shape, x0, y0, wire_line, init[3], radius)
+        band = wire_band(alpha.shape, x0, y0, wire_line, init[3], radius)
         whole, alpha = alpha, np.where(band, np.nan, alpha)
         hold = hold or _held_beside_band(guess, wire_line, init[3], radius)
     fit = fit_disc(alpha, x0, y0, guess, radius, init=init, tol_px=tol, hold_shape=hold,
@@ -171,7 +171,7 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
         patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
         alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance, unit)
         if band is not None:
-            band = _wire_band(alpha.shape, x0, y0, wire_line, init[3], radius)
+            band = wire_band(alpha.shape, x0, y0, wire_line, init[3], radius)
             whole, alpha = alpha, np.where(band, np.nan, alpha)
         fit = fit_disc(alpha, x0, y0, guess, radius, init=fit.params, tol_px=tol,
                        hold_shape=hold, stretch=stretch)
@@ -256,7 +256,7 @@ def _refine_binned(frame: Frame, guess: tuple[float, float], radius: float,
                                                   2 * p[2], 2 * p[3], *p[4:])), seen
 
 
-#: A printed disc the wire crosses is fitted without a band along it (:func:`_wire_band`);
+#: A printed disc the wire crosses is fitted without a band along it (:func:`wire_band`);
 #: at the wire's ends, B and C, only when its edge is blurred over this many px or more
 #: (out of focus; 1.2-1.5 in focus on H.264). In focus, B and C are fitted without the
 #: wire's pixels found as a dark line (:func:`_line_across`): with the band, B moved
@@ -333,7 +333,7 @@ def _off_line(point: tuple[float, float],
     return float(_across(point[0], point[1], line))
 
 
-def _wire_band(shape: tuple[int, ...], x0: int, y0: int,
+def wire_band(shape: tuple[int, ...], x0: int, y0: int,
                line: tuple[tuple[float, float], tuple[float, float]], edge_px: float,
                radius: float) -> NDArray:
     """Pixels of a patch (``shape``, top-left ``x0, y0``) within the wire's blurred shadow:

@@ -26,6 +26,8 @@ from ..errors import CranktrackError
 from ..tables import tracker_columns
 from .centre import Centre
 from .coverage import local_coverage
+from .disc import line_across
+from .ellipse import axis_ratio, ellipse_of, long_axis_deg
 from .foreshortening import Foreshortening
 from .lighting import LIGHT_SURE, light_change, lighting_notes
 from .marker_state import (
@@ -47,7 +49,14 @@ from .markers import (
     place_reach,
 )
 from .outline import shaded
-from .refine import BAND_EDGE_PX, patch_around, refine, refine_blob, wire_band_half_px
+from .refine import (
+    BAND_EDGE_PX,
+    patch_around,
+    refine,
+    refine_blob,
+    wire_band,
+    wire_band_half_px,
+)
 from .scatter import found_xy, repeated_frames, with_scatter_floor
 from .search import (
     balance_gains,
@@ -241,6 +250,8 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
                         state.regrow(centre.radius)
                     state.remember(_teaching_nothing(centre, state) if held else centre,
                                    seen, frame.index)
+                    if not held and state.measuring_shape():
+                        _measure_shape(frame, state, centre, wire_line)
                     return centre, "ok"
             blob, status = _window_blob(frame, state, pred, window(state), hsv_cache)
             setting_off = state.set_off_prediction(t)
@@ -320,6 +331,44 @@ def _followed(frame: Frame, state: MarkerState, pred: tuple[float, float],
     if again is None:
         return centre, seen, False, plausible
     return *again, True, _plausible(again[0], pred, state)
+
+
+def _ellipse_learned(state: MarkerState) -> dict[str, float | int | None]:
+    """What ``run.json`` says of a marker's ellipse learned without a calibration
+    (:mod:`.ellipse`): the ratio of its axes and its longer axis's direction (degrees
+    from +x toward +y), and the first frame fitted so; None for each where it was taken
+    as round or not measured."""
+    if state.ellipse is None:
+        return {"ellipse_axes_ratio": None, "ellipse_long_axis_deg": None,
+                "ellipse_from_frame": None}
+    u, v = state.ellipse
+    return {"ellipse_axes_ratio": round(axis_ratio(u, v), 4),
+            "ellipse_long_axis_deg": round(long_axis_deg(u, v), 1),
+            "ellipse_from_frame": state.shape_from + 1}
+
+
+def _measure_shape(frame: Frame, state: MarkerState, centre: Centre,
+                   wire_line: tuple[tuple[float, float], tuple[float, float]] | None) -> None:
+    """Measure the ellipse of a resting printed disc's fix ``centre`` (:mod:`.ellipse`)
+    on its coverage in ``frame``, for :meth:`.MarkerState.saw_shape`, without the band
+    the crank-slider's wire (``wire_line``: its ends, px) darkens and without a dark
+    line found across it. Left in, the wire tied at C's centre made C's disc look
+    0.975 : 1 on the second renderer's SMA bed filmed square-on, and the wire across A
+    made A 0.950 : 1 (bench/sma_bed_apart.py)."""
+    radius = state.radius
+    patch, x0, y0 = patch_around(frame, centre.x, centre.y, radius + 9)
+    alpha, _ = local_coverage(patch, x0, y0, (centre.x, centre.y), radius, state.colour,
+                              bool(state.spec.tone))
+    edge = centre.params[3] if centre.params is not None else 1.0
+    if wire_line is not None:
+        alpha = np.where(wire_band(alpha.shape, x0, y0, wire_line, edge, radius), np.nan,
+                         alpha)
+    line = line_across(alpha, x0, y0, centre)
+    if line is not None:
+        alpha = np.where(line, np.nan, alpha)
+    shape = ellipse_of(alpha, x0, y0, centre)
+    if shape is not None:
+        state.saw_shape(shape[0], shape[1], centre.x, centre.y, frame.index)
 
 
 def _refine_blob_in_light(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
@@ -1131,7 +1180,8 @@ def track(
     learned = {st.spec.name: {"hue_deg": round(st.spec.hue_deg, 2),
                               "hue_tol_deg": round(st.spec.hue_tol_deg, 2),
                               "radius_px": None if st.radius is None else round(st.radius, 3),
-                              "edge_px": None if st.edge_px is None else round(st.edge_px, 3)}
+                              "edge_px": None if st.edge_px is None else round(st.edge_px, 3),
+                              **_ellipse_learned(st)}
                for st in state.markers}
     notes = [n for st in state.markers for n in st.notes] + stair_notes(tracks, specs)
     notes += [note for st in state.markers if found[st.spec.name] == 0
