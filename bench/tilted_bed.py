@@ -300,6 +300,10 @@ def main(argv: list[str] | None = None) -> None:
             shutil.rmtree(out, ignore_errors=True)
             run = track_run(video, out, ("A", "C", bed.L1_MM), **kw)
             report(label, run.tracks, run.kinematics, case)
+            in_pixels(run.tracks, lens, pose, case)
+            said = [w for w in run.warnings if "ellipse" in w or "rigid length" in w]
+            for w in said:
+                print(f"    the run says: {w[:160]}{'…' * (len(w) > 160)}")
 
 
 def calibration_alone(plane: PlaneCalibration, lens: Lens, pose: Pose, case: bed.Case) -> None:
@@ -314,6 +318,22 @@ def calibration_alone(plane: PlaneCalibration, lens: Lens, pose: Pose, case: bed
     print(f"  the calibration alone (the drawn centres through it): θ off by up to "
           f"{np.max(np.abs(theta - truth_deg)):.3f}°, |AB| by "
           f"{np.max(np.abs(np.hypot(*ab.T) - bed.L2_MM)):.3f} mm")
+
+
+def in_pixels(tracks: pd.DataFrame, lens: Lens, pose: Pose, case: bed.Case) -> None:
+    """Each marker's fixes against its drawn centre sent through the bench's own camera
+    (px): RMS error per axis, median σ and ±1σ coverage (per coordinate)."""
+    truth = bed_mm(case.heating.theta(tracks["t_s"].to_numpy(float))[0])
+    parts = []
+    for m in "ABC":
+        ok = tracks[f"{m}_ok"].to_numpy(bool)
+        xy = tracks[[f"{m}_x_px", f"{m}_y_px"]].to_numpy(float)[ok]
+        err = xy - pose.project(lens, truth[m])[ok]
+        sigma = tracks[f"{m}_sigma_px"].to_numpy(float)[ok]
+        parts.append(f"{m} {math.sqrt(np.mean(err ** 2)):.3f} px, σ {np.median(sigma):.3f}, "
+                     f"{100 * np.mean(np.abs(err) <= sigma[:, None]):.0f} %")
+    print("    in px against the drawn centres (RMS per axis, median σ, ±1σ coverage): "
+          + "; ".join(parts))
 
 
 def report(label: str, tracks: pd.DataFrame, kin: pd.DataFrame, case: bed.Case) -> None:
