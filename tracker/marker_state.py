@@ -216,8 +216,10 @@ class MarkerState:
     #: Without a calibration, a printed disc's ellipse (:mod:`.ellipse`): the shape
     #: terms (u, v) measured on its resting fixes, while fewer than
     #: :data:`.ellipse.SHAPE_FRAMES`; then the settled ones (None: round), and where
-    #: they were measured (px), from which frame on (``shape_from``, -1 until settled).
+    #: they were measured (px), from which frame on (``shape_from``, -1 until settled);
+    #: the frame of the first fix measured (``shape_first``).
     shapes_seen: list[tuple[float, float]] = field(default_factory=list)
+    shape_first: int = -1
     ellipse: tuple[float, float] | None = None
     ellipse_at: tuple[float, float] | None = None
     shape_from: int = -1
@@ -502,8 +504,10 @@ class MarkerState:
 
     def stretch_at(self, x: float, y: float) -> tuple[float, float, float] | None:
         """The disc model's metric at image px (``x``, ``y``) (:func:`.disc.stretch_of`)
-        for a flat marker, printed on the plane the calibration is of; None (round) for
-        one that is not (a ball is round from any side) or without a calibration."""
+        for a flat marker, printed on the plane the calibration is of; without a
+        calibration, the ellipse learned while it stood (:meth:`saw_shape`) within
+        :data:`.ellipse.SHAPE_REACH_RADII` radii of there; else None (round), as for a
+        marker that is not flat (a ball is round from any side)."""
         if not self.spec.flat:
             return None
         if self.foreshortening is not None:
@@ -525,6 +529,8 @@ class MarkerState:
     def saw_shape(self, u: float, v: float, x: float, y: float, frame: int) -> None:
         """Take the shape terms measured on a resting fix at (``x``, ``y``) px in
         ``frame``; settle them after :data:`.ellipse.SHAPE_FRAMES` fixes."""
+        if not self.shapes_seen:
+            self.shape_first = frame
         self.shapes_seen.append((u, v))
         if len(self.shapes_seen) < SHAPE_FRAMES:
             return
@@ -532,11 +538,10 @@ class MarkerState:
         self.ellipse_at, self.shape_from = (x, y), frame
         if self.ellipse is not None:
             eu, ev = self.ellipse
-            first = frame - len(self.shapes_seen) + 1
             self.notes.append(
-                f"marker {self.spec.name}: standing still from frame {first} it was seen "
-                f"as an ellipse (axes {axis_ratio(eu, ev):.3f} : 1, the longer "
-                f"at {long_axis_deg(eu, ev):.0f}° from +x): the camera is not square to the "
+                f"marker {self.spec.name}: standing still from frame {self.shape_first} it "
+                f"was seen as an ellipse (axes {axis_ratio(eu, ev):.3f} : 1, the longer at "
+                f"{long_axis_deg(eu, ev):.0f}° from +x): the camera is not square to the "
                 f"rig; from frame {frame + 1} it is fitted as that ellipse within "
                 f"{SHAPE_REACH_RADII:.0f} radii of there. A plane calibration "
                 "(`cranktrack calibrate plane`) would say the shape everywhere, and map "
