@@ -16,6 +16,7 @@ from .ellipse import (
     SHAPE_FRAMES,
     SHAPE_MIN_RADIUS_PX,
     SHAPE_REACH_RADII,
+    SHAPE_TRIES,
     axis_ratio,
     long_axis_deg,
     metric_of,
@@ -220,6 +221,8 @@ class MarkerState:
     #: the frame of the first fix measured (``shape_first``).
     shapes_seen: list[tuple[float, float]] = field(default_factory=list)
     shape_first: int = -1
+    #: Resting fixes its ellipse was measured on, whether the fit came out or not.
+    shape_tries: int = 0
     ellipse: tuple[float, float] | None = None
     ellipse_at: tuple[float, float] | None = None
     shape_from: int = -1
@@ -521,9 +524,9 @@ class MarkerState:
     def measuring_shape(self) -> bool:
         """Is its ellipse still to be measured on this fix (:mod:`.ellipse`): a printed
         disc of :data:`.ellipse.SHAPE_MIN_RADIUS_PX` or more, without a calibration, at
-        rest, not yet settled?"""
+        rest, not yet settled, tried on fewer than :data:`.ellipse.SHAPE_TRIES` fixes?"""
         return (self.spec.flat and self.foreshortening is None and self.shape_from < 0
-                and self.resting and not self.rim
+                and self.resting and not self.rim and self.shape_tries < SHAPE_TRIES
                 and (self.radius or 0.0) >= SHAPE_MIN_RADIUS_PX)
 
     def saw_shape(self, u: float, v: float, x: float, y: float, frame: int) -> None:

@@ -355,6 +355,7 @@ def _measure_shape(frame: Frame, state: MarkerState, centre: Centre,
     line found across it. Left in, the wire tied at C's centre made C's disc look
     0.975 : 1 on the second renderer's SMA bed filmed square-on, and the wire across A
     made A 0.950 : 1 (bench/sma_bed_apart.py)."""
+    state.shape_tries += 1
     radius = state.radius
     patch, x0, y0 = patch_around(frame, centre.x, centre.y, radius + 9)
     alpha, _ = local_coverage(patch, x0, y0, (centre.x, centre.y), radius, state.colour,
