@@ -6,6 +6,8 @@ module. Bounds are looser than bench/accuracy.py's 1280×720 figures (radius
 the spool starts or stops and the motion prediction is off.
 """
 
+import math
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -15,7 +17,7 @@ from cranktrack.synthetic.render import Style
 from cranktrack.synthetic.scenarios import SpoolScenario
 from cranktrack.synthetic.scene import RenderSettings, render_scene
 from cranktrack.tracker.coverage import chroma
-from cranktrack.tracker.disc import fit_disc, fit_disc_cells
+from cranktrack.tracker.disc import _step, fit_disc, fit_disc_cells
 from cranktrack.tracker.markers import Blob, MarkerSpec, choose_blob
 from cranktrack.tracker.track import STATUSES, track
 from cranktrack.tracker.video import open_frames
@@ -280,6 +282,18 @@ def test_a_cell_refit_that_runs_off_on_a_small_lumpy_blob_keeps_the_pixel_fit():
     assert pixel.ok
     cell = fit_disc_cells(alpha, 0, 0, pixel)
     assert cell.sigma >= 0.5 * pixel.sigma > 0.01
+
+
+def test_the_disc_models_edge_is_the_normal_distributions_integral():
+    # The truth is the standard library's erf; the model's own formula is faster.
+    z = np.linspace(-10.0, 10.0, 40001)
+    phi, slope = np.array([_step(float(v)) for v in z]).T
+    truth = np.array([0.5 * (1.0 + math.erf(v / math.sqrt(2.0))) for v in z])
+    assert np.max(np.abs(phi - truth)) < 1e-7
+    assert np.allclose(slope, np.exp(-0.5 * z * z), rtol=1e-14, atol=0.0)
+    # The two halves meet at the edge, and the profile never steps back.
+    assert abs(_step(1e-12)[0] - _step(-1e-12)[0]) < 1e-7
+    assert np.all(np.diff(phi) >= -1e-12)
 
 
 def test_a_hard_edged_disc_does_not_make_the_fit_sure_of_itself():

@@ -30,6 +30,25 @@ EDGE_MIN = 0.29
 
 _SQRT_HALF = math.sqrt(0.5)
 _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
+#: Abramowitz & Stegun 7.1.26: erf(x) = 1 − (a1·t + … + a5·t⁵)·e^(−x²) with
+#: t = 1/(1 + p·x), x ≥ 0, within 1.5e-7 (:func:`_step`).
+_AS_P = 0.3275911 * _SQRT_HALF
+_AS_A1, _AS_A2, _AS_A3, _AS_A4, _AS_A5 = (0.254829592, -0.284496736, 1.421413741,
+                                          -1.453152027, 1.061405429)
+
+
+@njit(cache=True, nogil=True)
+def _step(z: float) -> tuple[float, float]:
+    """Φ(z), the blurred edge's profile (the normal distribution's integral), within
+    7.5e-8, and e^(−z²/2), its slope over 1/√(2π).
+
+    ``math.erf`` was half of the disc fit's time per pixel (16 of 34 ns on this
+    machine, no vectorised libm in numba): the formula takes the exponential the slope
+    needs anyway, and 7.5e-8 is a million times under a coverage's noise."""
+    e = math.exp(-0.5 * z * z)
+    t = 1.0 / (1.0 + _AS_P * abs(z))
+    tail = 0.5 * e * t * (_AS_A1 + t * (_AS_A2 + t * (_AS_A3 + t * (_AS_A4 + t * _AS_A5))))
+    return (1.0 - tail if z >= 0.0 else tail), e
 
 
 #: A disc seen square-on: its distance from the centre is the plain one
@@ -82,8 +101,8 @@ def _disc_point(p: NDArray, x: float, y: float, jrow: NDArray, m: NDArray) -> fl
     dx, dy = x - p[0], y - p[1]
     d = _distance(m, dx, dy) + 1e-9
     z = (p[2] - d) / p[3]
-    phi = 0.5 * (1.0 + math.erf(z * _SQRT_HALF))
-    g = (p[4] / p[3]) * _INV_SQRT_2PI * math.exp(-0.5 * z * z)  # a · dΦ/dz / s
+    phi, e = _step(z)
+    g = (p[4] / p[3]) * _INV_SQRT_2PI * e  # a · dΦ/dz / s
     # ∂d/∂cx = −(g11·dx + g12·dy)/d: for the round metric, −dx/d.
     jrow[0] = g * (m[0] * dx + m[1] * dy) / d
     jrow[1] = g * (m[1] * dx + m[2] * dy) / d
@@ -104,7 +123,8 @@ def _normal_equations(p: NDArray, X: NDArray, Y: NDArray, A: NDArray, n: int,
     most of a disc fit's time (yupi's rover clip: fits 1.5× faster, the same bits)."""
     cx, cy, r0, s, a, b = p[0], p[1], p[2], p[3], p[4], p[5]
     m0, m1, m2 = m[0], m[1], m[2]
-    g0 = p[4] / p[3]
+    g0 = p[4] / p[3] * _INV_SQRT_2PI
+    inv_s = 1.0 / s
     t0 = t1 = t2 = t3 = t4 = t5 = 0.0
     j00 = j10 = j11 = j20 = j21 = j22 = 0.0
     j30 = j31 = j32 = j33 = 0.0
@@ -114,11 +134,13 @@ def _normal_equations(p: NDArray, X: NDArray, Y: NDArray, A: NDArray, n: int,
     for k in range(n):
         dx, dy = X[k] - cx, Y[k] - cy
         d = _distance(m, dx, dy) + 1e-9
-        z = (r0 - d) / s
-        phi = 0.5 * (1.0 + math.erf(z * _SQRT_HALF))
-        g = g0 * _INV_SQRT_2PI * math.exp(-0.5 * z * z)
-        e0 = g * (m0 * dx + m1 * dy) / d
-        e1 = g * (m1 * dx + m2 * dy) / d
+        # Divisions cost as much as the exponential: one per pixel, not three.
+        z = (r0 - d) * inv_s
+        phi, e = _step(z)
+        g = g0 * e
+        g_d = g / d
+        e0 = g_d * (m0 * dx + m1 * dy)
+        e1 = g_d * (m1 * dx + m2 * dy)
         e2 = g
         e3 = -g * z
         e4 = phi
