@@ -41,7 +41,7 @@ import tempfile
 import time
 import xml.etree.ElementTree as ET
 import zipfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
@@ -58,7 +58,7 @@ from cranktrack.environment import versions_line
 from cranktrack.pipeline import track_run
 from cranktrack.tracker.markers import parse_markers
 from cranktrack.tracker.survey import frame_and_later, survey
-from cranktrack.tracker.track import track
+from cranktrack.tracker.track import TrackResult, track
 from cranktrack.tracker.video import open_frames
 from cranktrack.warmup import compile_kernels
 
@@ -85,6 +85,54 @@ class Clip:
     video: str = ""
     first: int = 0
     step: int = 1
+
+
+@dataclass
+class Scorecard:
+    """#20's "Done when", clip by clip: each figure the bench measured against its aim,
+    gathered as the clips run and printed last (:meth:`show`)."""
+
+    rows: list[tuple[str, str, str, str, bool]] = field(default_factory=list)
+
+    def add(self, clip: str, what: str, figure: str, aim: str, met: bool) -> None:
+        """One measured figure of ``clip`` and whether it meets ``aim``."""
+        self.rows.append((clip, what, figure, aim, bool(met)))
+
+    def show(self) -> None:
+        """The table, then how many figures meet their aims."""
+        if not self.rows:
+            return
+        print("\n#20's aims, as measured in this run (the lines above say why each is so):")
+        widths = [max(len(r[k]) for r in self.rows) for k in range(4)]
+        for clip, what, figure, aim, met in self.rows:
+            print(f"  {clip:<{widths[0]}}  {what:<{widths[1]}}  {figure:>{widths[2]}}  "
+                  f"aim {aim:<{widths[3]}}  {'met' if met else 'NOT met'}")
+        print(f"  {sum(r[4] for r in self.rows)} of {len(self.rows)} met")
+
+
+def sure_of_nothing(result: TrackResult, name: str) -> int:
+    """Rows of marker ``name`` that are ``ok`` with a σ that is not finite or not under
+    the radius the run learned for it (#20: there must be none)."""
+    tab = result.tracks
+    ok = tab[f"{name}_ok"].to_numpy(bool)
+    sigma = tab[f"{name}_sigma_px"].to_numpy(float)
+    radius = (result.learned.get(name) or {}).get("radius_px")
+    bad = ok & ~np.isfinite(sigma)
+    if radius is not None:
+        bad |= ok & ~(sigma < radius)
+    return int(bad.sum())
+
+
+def score_common(card: Scorecard, clip: str, result: TrackResult, name: str,
+                 track_s: float, decode_s: float) -> None:
+    """The aims every clip has: no ``ok`` row unsure of itself, and tracking at 0.9 of
+    decoding's speed or more on a clip over 10 s."""
+    card.add(clip, f"ok rows with σ ≥ radius or not finite ({name})",
+             str(sure_of_nothing(result, name)), "0", sure_of_nothing(result, name) == 0)
+    t = result.tracks["t_s"].to_numpy(float)
+    if len(t) and t[-1] - t[0] > 10.0:
+        card.add(clip, "decode/track speed", f"{decode_s / track_s:.2f}", "≥ 0.9",
+                 decode_s / track_s >= 0.9)
 
 
 CLIPS = (
@@ -317,27 +365,27 @@ def decode_seconds(video: Path, fps: float | None) -> float:
     return time.perf_counter() - t0
 
 
-def timed(specs: tuple, video: Path, fps: float | None) -> tuple[pd.DataFrame, float, float]:
-    """The tracks of ``specs`` through ``video``, and the seconds tracking took and
+def timed(specs: tuple, video: Path, fps: float | None) -> tuple[TrackResult, float, float]:
+    """The tracking of ``specs`` through ``video``, and the seconds tracking took and
     decoding alone took (:func:`decode_seconds`): each the median of :data:`TIMINGS`
     runs, a decoding and a tracking in turn so that both meet the machine alike (every
     run gives the same tracks)."""
-    decode_s, track_s, tracks = [], [], None
+    decode_s, track_s, result = [], [], None
     for _ in range(TIMINGS):
         decode_s.append(decode_seconds(video, fps))
         t0 = time.perf_counter()
-        tracks = track(open_frames(video, fps), specs).tracks
+        result = track(open_frames(video, fps), specs)
         track_s.append(time.perf_counter() - t0)
-    return tracks, float(np.median(track_s)), float(np.median(decode_s))
+    return result, float(np.median(track_s)), float(np.median(decode_s))
 
 
 def timed_track(video: Path, fps: float | None, marker: str
-                ) -> tuple[pd.DataFrame, str, float, float]:
-    """Track one ``--marker`` through ``video``: the tracks, the marker's name, and the
+                ) -> tuple[TrackResult, str, float, float]:
+    """Track one ``--marker`` through ``video``: the tracking, the marker's name, and the
     seconds taken by tracking and by decoding alone (:func:`timed`)."""
     specs = parse_markers([marker])
-    tracks, track_s, decode_s = timed(specs, video, fps)
-    return tracks, specs[0].name, track_s, decode_s
+    result, track_s, decode_s = timed(specs, video, fps)
+    return result, specs[0].name, track_s, decode_s
 
 
 def inspect_rank(video: Path, fps: float | None, frame: int, xy: tuple[float, float]
@@ -400,9 +448,10 @@ def add_clip_paths(ap: argparse.ArgumentParser) -> None:
                          "rover's LED (bench/yupi_peer.py)")
 
 
-def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
-    """Track one clip, print its figures, and return those a later line compares
-    across clips (a drag fall's terminal speed, ours and the peer's, m/s)."""
+def run_clip(repo: Path, clip: Clip, card: Scorecard) -> dict[str, float]:
+    """Track one clip, print its figures (and score them on ``card``), and return those a
+    later line compares across clips (a drag fall's terminal speed, ours and the peer's,
+    m/s)."""
     found = footage(repo, clip)
     if found is None:
         return {}
@@ -411,7 +460,9 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
         print(f"\n{clip.video}: the footage of {clip.trz} at its own clock; the peer's "
               f"frame k is frame {clip.first} + {clip.step}·k here "
               f"(mean |difference| {_same_pixels(found.project_video, video, clip)})")
-    tab, name, track_s, decode_s = timed_track(video, fps, clip.marker)
+    result, name, track_s, decode_s = timed_track(video, fps, clip.marker)
+    tab = result.tracks
+    label = f"{clip.video or clip.trz} ({clip.mass})"
     peer_frames = np.array(sorted(clicks))
     rows = tab.set_index("frame").loc[peer_frames]
     ok = rows[f"{name}_ok"].to_numpy(bool)
@@ -423,6 +474,8 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
     print(f"  found in {ok.sum()} of the {len(peer_frames)} frames the peer clicked "
           f"({100 * ok.mean():.0f} %); statuses elsewhere: "
           f"{ {k: int(v) for k, v in rows.loc[~ok, f'{name}_status'].value_counts().items()} }")
+    card.add(label, "found where the peer clicked", f"{100 * ok.mean():.0f} %", "≥ 95 %",
+             ok.mean() >= 0.95)
     # What a new user sees first: where `inspect` lists the object, in the frame in the
     # middle of those the peer clicked (the peer's choice is the truth of which it is).
     middle = int(peer_frames[len(peer_frames) // 2])
@@ -435,12 +488,14 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
         print(f"  time (median of {TIMINGS} runs each): tracking {track_s:.2f} s, PyAV "
               f"decoding to RGB alone {decode_s:.2f} s "
               f"(ratio decode/track {decode_s / track_s:.2f})")
+        score_common(card, label, result, name, track_s, decode_s)
         return {}
     diff = ours[ok] - theirs[ok]
     offset = diff.mean(axis=0)
     rms = float(np.sqrt(np.mean(np.sum((diff - offset) ** 2, axis=1))))
     print(f"  against the peer's clicks: offset ({offset[0]:+.2f}, {offset[1]:+.2f}) px, "
           f"RMS after removing it {rms:.2f} px")
+    card.add(label, "RMS against the peer", f"{rms:.2f} px", "≤ 1 px", rms <= 1.0)
     t = rows["t_s"].to_numpy(float)
     if clip.physics == "parabola":
         # Every frame found in flight, between the peer's first and last click (on a
@@ -470,6 +525,11 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
                   f"({100 * (g_ours * scale / per_m / 9.80 - 1):+.1f} %)")
         print(f"  ±1σ coverage of our σ (median {np.median(sigma):.3f} px) against the "
               f"parabola: {100 * inside.mean():.0f} % of coordinates (aim 50–90 %)")
+        off_g = g_ours / 9.80 - 1
+        card.add(label, "g, the peer's tape on the metre stick", f"{100 * off_g:+.1f} %",
+                 "within 2 %", abs(off_g) <= 0.02)
+        card.add(label, "±1σ coverage against the parabola", f"{100 * inside.mean():.0f} %",
+                 "50–90 %", 0.5 <= inside.mean() <= 0.9)
         # A camera that reads its rows one after another (a rolling shutter) takes
         # the ball lower in the frame later than the frame's time says: one more
         # parameter, fitted to our track and, apart, to the peer's clicks.
@@ -488,6 +548,9 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
               f"RMS {rolled.residual_px:.2f} px ours, {rolled_peer.residual_px:.2f} px the "
               f"peer's; ±1σ coverage "
               f"{100 * np.mean(dof * np.abs(rolled.residual) <= sigma[:, None]):.0f} %")
+        card.add(label, "g, with the rolling shutter's readout",
+                 f"{100 * (acc / scale / 9.80 - 1):+.1f} %", "within 2 %",
+                 abs(acc / scale / 9.80 - 1) <= 0.02)
         # One toss cannot tell a readout from a flight plane turned to the camera: both
         # bend the image parabola. Fitted together, the readout says which took the bend.
         print(f"  a flight plane turned to the camera, all rows at once, leaves "
@@ -545,6 +608,8 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
         print(f"  ±1σ coverage of our σ (median {np.median(sigma):.3f} px) against the "
               f"drag fall (y): {100 * inside.mean():.0f} % (aim 50–90 %); residual lag-1 "
               f"correlation {float(np.corrcoef(resid[:-1], resid[1:])[0, 1]):+.2f}")
+        card.add(label, "±1σ coverage against the drag fall", f"{100 * inside.mean():.0f} %",
+                 "50–90 %", 0.5 <= inside.mean() <= 0.9)
     if clip.physics == "periodic":
         # The period from the peer's clicks, so that our track is not judged by itself.
         theirs_all = np.array([clicks.get(f, (np.nan, np.nan)) for f in tab["frame"]])
@@ -557,12 +622,15 @@ def run_clip(repo: Path, clip: Clip) -> dict[str, float]:
         print(f"  repeats every {lag} frames (from the peer's clicks): a point's scatter "
               f"{s_ours:.2f} px ours, {s_peer:.2f} px the peer's; together they predict "
               f"{np.hypot(s_ours, s_peer):.2f} px RMS between the two tracks")
+        covered = repeat_coverage(ours_all, sig_all, lag)
         print(f"  ±1σ coverage of our σ (median {np.nanmedian(sig_all):.3f} px) against the "
-              f"repetition: {100 * repeat_coverage(ours_all, sig_all, lag):.0f} % of "
-              "coordinates (aim 50–90 %)")
+              f"repetition: {100 * covered:.0f} % of coordinates (aim 50–90 %)")
+        card.add(label, "±1σ coverage against the repetition", f"{100 * covered:.0f} %",
+                 "50–90 %", 0.5 <= covered <= 0.9)
     print(f"  time (median of {TIMINGS} runs each): tracking {track_s:.2f} s, PyAV decoding "
           f"to RGB alone {decode_s:.2f} s "
           f"(ratio decode/track {decode_s / track_s:.2f}; aim ≥ 0.9 on clips over 10 s)")
+    score_common(card, label, result, name, track_s, decode_s)
     return figures
 
 
@@ -609,19 +677,23 @@ def colour_centroids(video: Path, frames: NDArray, near: NDArray, channel: int,
     return np.array(out)
 
 
-def run_pendulum(repo: Path) -> None:
-    """Track the bauble, fit the swing of :mod:`pendulum`, print its figures."""
+def run_pendulum(repo: Path, card: Scorecard) -> None:
+    """Track the bauble, fit the swing of :mod:`pendulum`, print its figures (and score
+    them on ``card``)."""
     name, marker, length_m = PENDULUM
     video = _extract(repo, name, folder="")
     if video is None:
         print(f"\n{name}: not in {repo}; skipped")
         return
-    tab, bob, track_s, decode_s = timed_track(video, None, marker)
+    result, bob, track_s, decode_s = timed_track(video, None, marker)
+    tab = result.tracks
     ok = tab[f"{bob}_ok"].to_numpy(bool)
     print(f"\n{name} (a pendulum, {len(tab)} frames, {tab['t_s'].iloc[-1]:.1f} s): "
           f"`--marker {marker}`")
     print(f"  found in {ok.sum()} of {len(tab)} frames ({100 * ok.mean():.0f} %; the bob is in "
           "view in every frame)")
+    card.add(name, "found (the bob is always in view)", f"{100 * ok.mean():.0f} %", "≥ 95 %",
+             ok.mean() >= 0.95)
     if ok[0]:
         at0 = tab[[f"{bob}_x_px", f"{bob}_y_px"]].to_numpy(float)[0]
         rank, listed = inspect_rank(video, None, 0, (float(at0[0]), float(at0[1])))
@@ -655,13 +727,17 @@ def run_pendulum(repo: Path) -> None:
           f" px RMS from ours, yet the two residuals correlate x {shared[0]:+.2f}, "
           f"y {shared[1]:+.2f}: what is left is the swing's")
     r1 = [float(np.corrcoef(r[:-1, i], r[1:, i])[0, 1]) for i in range(2)]
+    covered = float(np.mean(dof * np.abs(r) <= sigma[:, None]))
+    card.add(name, "±1σ coverage against the swing", f"{100 * covered:.0f} %", "50–90 %",
+             0.5 <= covered <= 0.9)
     print(f"  ±1σ coverage of our σ (median {np.median(sigma):.3f} px) against that swing: "
-          f"{100 * np.mean(dof * np.abs(r) <= sigma[:, None]):.0f} % (aim 50–90 %); residual "
+          f"{100 * covered:.0f} % (aim 50–90 %); residual "
           f"lag-1 correlation x {r1[0]:+.2f}, y {r1[1]:+.2f} (near +1: the swing model's "
           "error, not the track's)")
     print(f"  time (median of {TIMINGS} runs each): tracking {track_s:.2f} s, PyAV decoding "
           f"to RGB alone {decode_s:.2f} s "
           f"(ratio decode/track {decode_s / track_s:.2f}; aim ≥ 0.9 on clips over 10 s)")
+    score_common(card, name, result, bob, track_s, decode_s)
 
 
 #: A scaled rover wheel driven over sand on an arm that turns about a central pivot,
@@ -748,6 +824,14 @@ def yupi_track(video: Path, python: Path, start: tuple[float, float]) -> pd.Data
     return pd.read_csv(StringIO(out))
 
 
+def rest_coverage(xy: NDArray, sigma: NDArray) -> float:
+    """How often a marker at rest lies within ±σ of the median of its fixes (per
+    coordinate), NaN for fewer than 10 fixes."""
+    if len(xy) < 10:
+        return float("nan")
+    return float(np.mean(np.abs(xy - np.median(xy, axis=0)) <= sigma[:, None]))
+
+
 def at_rest_line(name: str, xy: NDArray, sigma: NDArray) -> str:
     """Scatter about the median of a marker's fixes at rest, its σ and its coverage."""
     if len(xy) < 10:
@@ -756,7 +840,7 @@ def at_rest_line(name: str, xy: NDArray, sigma: NDArray) -> str:
     spread = 1.4826 * np.median(np.abs(d), axis=0)
     return (f"{name}: scatter (MAD) x {spread[0]:.3f}, y {spread[1]:.3f} px, largest "
             f"{np.abs(d).max():.2f} px; σ median {np.median(sigma):.3f} px; ±1σ coverage "
-            f"{100 * np.mean(np.abs(d) <= sigma[:, None]):.0f} % (aim 50–90 %)")
+            f"{100 * rest_coverage(xy, sigma):.0f} % (aim 50–90 %)")
 
 
 def rest_second_method(video: Path, pivot: NDArray, frames: NDArray) -> str:
@@ -820,14 +904,16 @@ def arm_rate(video: Path, theirs: pd.DataFrame, pivot: NDArray, off: int, last: 
           f"{np.nanmax(omega):.3f} rad/s in the {int(np.isfinite(omega).sum())} frames it has")
 
 
-def run_rover(repo: Path, yupi_python: Path | None) -> None:
-    """Track the LED and the pivot, check rest and the circle, compare with yupi."""
+def run_rover(repo: Path, yupi_python: Path | None, card: Scorecard) -> None:
+    """Track the LED and the pivot, check rest and the circle, compare with yupi (and score
+    the figures on ``card``)."""
     name, led_marker, pivot_marker = ROVER
     video = _extract(repo, name, folder="resources/videos")
     if video is None:
         print(f"\n{name}: not in {repo}; skipped")
         return
-    tab, track_s, decode_s = timed(parse_markers([led_marker, pivot_marker]), video, None)
+    result, track_s, decode_s = timed(parse_markers([led_marker, pivot_marker]), video, None)
+    tab = result.tracks
     level, brightest = greenest(video)
     lit = level >= LIT_DN
     moved = np.hypot(*(brightest - brightest[0]).T) > SET_OFF_PX
@@ -842,6 +928,8 @@ def run_rover(repo: Path, yupi_python: Path | None) -> None:
           f"({100 * ok[lit].mean():.1f} %; aim ≥ 95 %): {ok[:off][lit[:off]].sum()} of "
           f"{lit[:off].sum()} at rest, {ok[off:last + 1].sum()} of {last + 1 - off} on the "
           f"move; in {ok[~lit].sum()} of the {(~lit).sum()} frames it is out")
+    card.add(name, "LED found while lit", f"{100 * ok[lit].mean():.1f} %", "≥ 95 %",
+             ok[lit].mean() >= 0.95)
     xy = tab[["led_x_px", "led_y_px"]].to_numpy(float)
     sigma = tab["led_sigma_px"].to_numpy(float)
     pivot = tab[["pivot_x_px", "pivot_y_px"]].to_numpy(float)
@@ -856,6 +944,13 @@ def run_rover(repo: Path, yupi_python: Path | None) -> None:
     print("  at rest, " + at_rest_line("LED", xy[rest & ok], sigma[rest & ok]))
     print("  at rest, " + at_rest_line("pivot", pivot[rest & pivot_ok],
                                        tab["pivot_sigma_px"].to_numpy(float)[rest & pivot_ok]))
+    for what, xy_rest, sigma_rest in (
+            ("LED", xy[rest & ok], sigma[rest & ok]),
+            ("pivot", pivot[rest & pivot_ok],
+             tab["pivot_sigma_px"].to_numpy(float)[rest & pivot_ok])):
+        covered = rest_coverage(xy_rest, sigma_rest)
+        card.add(name, f"±1σ coverage of the {what} at rest", f"{100 * covered:.0f} %",
+                 "50–90 %", 0.5 <= covered <= 0.9)
     print("  " + rest_second_method(video, pivot, np.flatnonzero(rest & pivot_ok)))
     still = body_still_until(video, np.median(pivot[rest & pivot_ok], axis=0), off, last)
     turn = ~rest & ok & (np.arange(len(tab)) <= still)
@@ -866,11 +961,14 @@ def run_rover(repo: Path, yupi_python: Path | None) -> None:
     dof = np.sqrt(r.size / (r.size - 3))
     print(f"  the body stands until frame {still} (its pivot's redness centroid steps under "
           f"{BODY_STEP_PX} px a frame; the LED is lit until {last})")
+    covered = float(np.mean(dof * np.abs(r) <= sigma[turn]))
+    card.add(name, "±1σ coverage of the LED on its circle", f"{100 * covered:.0f} %", "50–90 %",
+             0.5 <= covered <= 0.9)
     print(f"  on the move: a circle through our {turn.sum()} fixes (centre ({centre[0]:.1f}, "
           f"{centre[1]:.1f}), radius {radius:.1f} px; the pivot's fix at rest "
           f"{np.hypot(*(centre - np.median(pivot[rest & pivot_ok], axis=0))):.1f} px from its "
           f"centre) leaves {np.sqrt(np.mean(r**2)):.3f} px RMS across it; ±1σ coverage "
-          f"{100 * np.mean(dof * np.abs(r) <= sigma[turn]):.0f} % (σ median "
+          f"{100 * covered:.0f} % (σ median "
           f"{np.median(sigma[turn]):.3f} px; aim 50–90 %); lag-1 correlation of the "
           f"residual {np.corrcoef(r[:-1], r[1:])[0, 1]:+.2f} (near +1: the arm's own "
           "wobble or a slow error, not noise)")
@@ -891,6 +989,7 @@ def run_rover(repo: Path, yupi_python: Path | None) -> None:
             diff = xy[both] - theirs.loc[both].to_numpy(float)
             offset = diff.mean(axis=0)
             rms = float(np.sqrt(np.mean(np.sum((diff - offset) ** 2, axis=1))))
+            card.add(name, "LED's RMS against yupi's", f"{rms:.2f} px", "≤ 1 px", rms <= 1.0)
             print(f"  yupi's colour tracker (whole-pixel centroids) found it in "
                   f"{len(theirs)} frames; against it, on the {len(both)} both found: offset "
                   f"({offset[0]:+.2f}, {offset[1]:+.2f}) px, RMS after removing it {rms:.2f} px "
@@ -902,6 +1001,9 @@ def run_rover(repo: Path, yupi_python: Path | None) -> None:
     print(f"  time (median of {TIMINGS} runs each): tracking {track_s:.2f} s, PyAV decoding "
           f"to RGB alone {decode_s:.2f} s "
           f"(ratio decode/track {decode_s / track_s:.2f}; aim ≥ 0.9 on clips over 10 s)")
+    score_common(card, name, result, "led", track_s, decode_s)
+    card.add(name, "ok rows with σ ≥ radius or not finite (pivot)",
+             str(sure_of_nothing(result, "pivot")), "0", sure_of_nothing(result, "pivot") == 0)
 
 
 def main() -> None:
@@ -919,19 +1021,21 @@ def main() -> None:
         return
     # The kernels compiled (or read from numba's cache) before any clip is timed.
     compile_kernels()
+    card = Scorecard()
     if args.tracker is not None and args.tracker.exists():
         falls = {}
         for clip in CLIPS:
-            figures = run_clip(args.tracker, clip)
+            figures = run_clip(args.tracker, clip, card)
             if clip.physics == "drag":
                 falls[clip] = figures
         if falls:
             print("\nCupsClips: terminal speeds against the masses (drag ∝ v², one shape)")
             compare_drag(falls)
     if args.pendulum is not None and args.pendulum.exists():
-        run_pendulum(args.pendulum)
+        run_pendulum(args.pendulum, card)
     if args.rover is not None and args.rover.exists():
-        run_rover(args.rover, args.yupi_python)
+        run_rover(args.rover, args.yupi_python, card)
+    card.show()
 
 
 if __name__ == "__main__":
