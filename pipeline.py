@@ -66,7 +66,7 @@ from .run_folder import (
     run_folder,
 )
 from .tracker.foreshortening import Foreshortening, foreshortening_of
-from .tracker.gaps import fill_gaps
+from .tracker.gaps import fill_gaps, found_span
 from .tracker.marker_state import MarkerState
 from .tracker.markers import DEFAULT_MARKERS, MarkerSpec
 from .tracker.scatter import found_xy
@@ -291,9 +291,12 @@ def readout_from_run(run: str | os.PathLike, marker: str, start_s: float | None 
     return readout_from_flight(t[use], xy, int(height))
 
 
-def _found_warnings(found_fraction: dict[str, float], problems: list[str]) -> list[str]:
+def _found_warnings(found_fraction: dict[str, float], problems: list[str],
+                    tracks: pd.DataFrame) -> list[str]:
     """What to tell the user of markers found in few or no frames (``problems`` may
-    already say why one was never found: not within reach of its place)."""
+    already say why one was never found: not within reach of its place), and, where
+    its misses lie before or after the frames it was found in, which frames those are
+    (:func:`.tracker.gaps.found_span`)."""
     out = []
     for name, frac in found_fraction.items():
         if frac == 0 and any(p.startswith(f"marker {name} was never within reach")
@@ -302,7 +305,11 @@ def _found_warnings(found_fraction: dict[str, float], problems: list[str]) -> li
         if frac == 0:
             out.append(f"marker {name} was not found in any frame; check its colour")
         elif frac < 0.95:
-            out.append(f"marker {name} was found in only {100 * frac:.0f}% of frames")
+            where = (found_span(tracks[f"{name}_ok"].to_numpy(bool),
+                                tracks["t_s"].to_numpy(float))
+                     if f"{name}_ok" in tracks else None)
+            out.append(f"marker {name} was found in only {100 * frac:.0f}% of frames"
+                       + (f": {where}" if where else ""))
     return out
 
 
@@ -377,7 +384,7 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
     if fill_gaps_frames > 0:
         tracks = fill_gaps(tracks, names, fill_gaps_frames)
     warnings = list(result.problems) + _found_warnings(result.found_fraction,
-                                                           result.problems)
+                                                           result.problems, result.tracks)
     files = {"tracks": write_csv_atomic(folder / TRACKS, tracks)}
     run_info = {
         "schema": RUN_SCHEMA,
@@ -585,7 +592,8 @@ def measure_run(run: str | os.PathLike, known_length: tuple[str, str, float] | N
                                  aligned=reused,
                                  pixel_aspect=float(source.get("pixel_aspect") or 1.0))
         files = dict(measured.files)
-        warnings = (problems + _found_warnings(tracking.get("found_fraction") or {}, problems)
+        warnings = (problems + _found_warnings(tracking.get("found_fraction") or {}, problems,
+                                               tracks)
                     + measured.warnings)
         tracking.pop("rolling_shutter_readout_s", None)
         if readout_s:

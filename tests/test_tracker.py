@@ -264,6 +264,40 @@ def test_gaps_are_filled_only_on_request_and_flagged(render):
     assert fill_gaps(t, ("A", "B", "C"), max_frames=9).loc[25:34, "B_x_px"].isna().all()
 
 
+def test_where_a_marker_was_found_is_said_when_its_misses_lie_before_or_after():
+    from cranktrack.tracker.gaps import found_span
+
+    t = np.arange(100) / 10.0
+    left = np.zeros(100, bool)
+    left[:60] = True
+    left[10] = False
+    assert found_span(left, t) == ("in 59 of the 60 frames from 0.00 s to 5.90 s and in none "
+                                   "of the 40 after (out of view, covered or unlit there)")
+    late = np.zeros(100, bool)
+    late[20:70] = True
+    assert found_span(late, t).startswith(
+        "in 50 of the 50 frames from 2.00 s to 6.90 s, in none of the 20 before and in none "
+        "of the 30 after")
+    scattered = np.ones(100, bool)
+    scattered[::3] = False
+    assert found_span(scattered, t) is None
+    assert found_span(np.ones(100, bool), t) is None
+    assert found_span(np.zeros(100, bool), t) is None
+
+
+def test_a_marker_hidden_to_the_end_is_said_to_be_found_until_then(render):
+    from cranktrack.pipeline import _found_warnings
+
+    result, _, _ = render("b_leaves", noise_dn=2.5, hidden={"B": range(40, 60)})
+    said = _found_warnings(result.found_fraction, result.problems, result.tracks)
+    about_b = [w for w in said if w.startswith("marker B was found in only")]
+    assert len(about_b) == 1, said
+    last = int(np.flatnonzero(result.tracks["B_ok"].to_numpy(bool))[-1])
+    assert 38 <= last <= 40
+    t_last = result.tracks["t_s"].iloc[last]
+    assert f"to {t_last:.2f} s and in none of the {len(result.tracks) - 1 - last} after" \
+        in about_b[0]
+
 def test_a_cell_refit_that_runs_off_on_a_small_lumpy_blob_keeps_the_pixel_fit():
     # A 3 px disc under α noise of 0.3 shared by 2×2 cells: about 20 cells for six
     # parameters. Unchecked, this draw's refit claimed σ = 7e-120 px (a webcam

@@ -55,3 +55,27 @@ def fill_gaps(tracks: pd.DataFrame, markers: tuple[str, ...], max_frames: int) -
         if status is not None:
             out[f"{m}_status"] = status
     return out
+
+
+def found_span(found: NDArray[np.bool_], t_s: NDArray[np.floating]) -> str | None:
+    """Where a marker found in some frames was found, when most of the frames it was
+    missed in come before its first fix or after its last (it came into view late, or
+    left it, was covered or went out): a clause for the warning that it was found in
+    few frames. None when it was found in every frame or none, or when its misses are
+    scattered through the run. ``t_s``: each frame's time, s."""
+    found = np.asarray(found, bool)
+    n, k = len(found), int(found.sum())
+    if k in (0, n):
+        return None
+    first, last = (int(i) for i in np.flatnonzero(found)[[0, -1]])
+    before, after = first, n - 1 - last
+    if before + after < 0.5 * (n - k):
+        return None
+    span = last - first + 1
+    said = [f"in {int(found[first:last + 1].sum())} of the {span} frames from "
+            f"{t_s[first]:.2f} s to {t_s[last]:.2f} s"]
+    if before:
+        said.append(f"in none of the {before} before")
+    if after:
+        said.append(f"in none of the {after} after")
+    return ", ".join(said[:-1]) + " and " + said[-1] + " (out of view, covered or unlit there)"
