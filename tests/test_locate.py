@@ -470,3 +470,30 @@ def test_a_placed_markers_failed_blob_is_fitted_again_where_no_blob_is_found(mon
 
     assert run(one) == ["refine_failed", "ok", "ok"]
     assert run(two) == ["refine_failed", "not_found", "not_found"]
+
+
+def test_a_placed_marker_whose_hue_blob_lies_off_its_disc_is_learned_at_its_disc():
+    # Yupi's rover LED (3 px, a white core) gave a hue blob 0.3-0.6 of its radius off the
+    # disc its coverage makes; named B it was lost while its size was learned. Here the
+    # blob handed over lies 1.5 px off a drawn disc, and the fit sits on the disc.
+    from dataclasses import replace
+
+    from cranktrack.tracker.centre import Centre
+    from cranktrack.tracker.marker_state import MarkerState
+    from cranktrack.tracker.markers import Blob
+    from cranktrack.tracker.track import _off_its_blob
+    from cranktrack.tracker.video import Frame
+
+    frame = Frame(0, 0.0, draw({"B": (60.3, 50.6, 4.0)}))
+    fit = Centre(60.3, 50.6, 0.05, 4.0, True)
+    off = Blob(60.3, 49.1, np.pi * 4.0**2, np.pi / 4, 1.0)
+    spec = next(s for s in DEFAULT_MARKERS if s.name == "B")
+    placed = MarkerState(replace(spec, near_px=(60.0, 50.0)))
+    assert not _off_its_blob(frame, placed, off, fit, off.radius)
+    # Not placed by the user, only the blob's own centroid is trusted.
+    assert _off_its_blob(frame, MarkerState(spec), off, fit, off.radius)
+    # A fit pulled off a blob that is the disc (the wire's pull) is refused, placed or not.
+    on = replace(off, y=50.6)
+    pulled = Centre(60.3, 49.1, 0.05, 4.0, True)
+    assert _off_its_blob(frame, placed, on, pulled, on.radius)
+    assert not _off_its_blob(frame, placed, on, fit, on.radius)
