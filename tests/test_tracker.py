@@ -278,6 +278,9 @@ def test_where_a_marker_was_found_is_said_when_its_misses_lie_before_or_after():
     assert found_span(late, t).startswith(
         "in 50 of the 50 frames from 2.00 s to 6.90 s, in none of the 20 before and in none "
         "of the 30 after")
+    once = np.zeros(100, bool)
+    once[30] = True
+    assert found_span(once, t).startswith("in one frame, at 3.00 s, in none of the 30 before")
     scattered = np.ones(100, bool)
     scattered[::3] = False
     assert found_span(scattered, t) is None

@@ -72,7 +72,8 @@ def found_span(found: NDArray[np.bool_], t_s: NDArray[np.floating]) -> str | Non
     if before + after < 0.5 * (n - k):
         return None
     span = last - first + 1
-    said = [f"in {int(found[first:last + 1].sum())} of the {span} frames from "
+    said = [f"in one frame, at {t_s[first]:.2f} s" if span == 1 else
+            f"in {int(found[first:last + 1].sum())} of the {span} frames from "
             f"{t_s[first]:.2f} s to {t_s[last]:.2f} s"]
     if before:
         said.append(f"in none of the {before} before")
