@@ -521,12 +521,11 @@ def _off_its_blob(frame: Frame, state: MarkerState, blob: Blob, centre: Centre,
     acquisition's fit) stays within 0.1 radii of the blob's: that fit is refused.
     A marker whose hue is its fringe alone moves the blob instead, and its coverage's
     centroid lies off the blob too: where the user placed the marker (``@X,Y``), the
-    fit is then held to that centroid. Yupi's
-    rover LED, 3 px across, has a white core; its hue blob lay 0.3-0.6 radii from
-    its coverage's centroid, so, named B, it was lost for the clip's first 24 frames
-    (bench/README.md, stop 62). Held to either centroid, the second renderer's A,
-    out of focus with the wire across it, was learned 0.26 radii off and followed
-    up to 2.9 px off."""
+    fit is then held to that centroid. Yupi's rover LED, 3 px across, has a white
+    core; its hue blob lay 0.3-0.6 radii from its coverage's centroid, so, named B,
+    it was lost for the clip's first 24 frames (bench/README.md, stop 62). Passed
+    where it lay near either centroid, the second renderer's A, out of focus with the
+    wire across it, was learned 0.26 radii off and followed up to 2.9 px off."""
     limit = LEARN_DRIFT * blob.radius
     if np.hypot(centre.x - blob.x, centre.y - blob.y) <= limit:
         return False
