@@ -127,8 +127,9 @@ def score_common(card: Scorecard, clip: str, result: TrackResult, name: str,
                  track_s: float, decode_s: float) -> None:
     """The aims every clip has: no ``ok`` row unsure of itself, and tracking at 0.9 of
     decoding's speed or more on a clip over 10 s."""
-    card.add(clip, f"ok rows with σ ≥ radius or not finite ({name})",
-             str(sure_of_nothing(result, name)), "0", sure_of_nothing(result, name) == 0)
+    unsure = sure_of_nothing(result, name)
+    card.add(clip, f"ok rows with σ ≥ radius or not finite ({name})", str(unsure), "0",
+             unsure == 0)
     t = result.tracks["t_s"].to_numpy(float)
     if len(t) and t[-1] - t[0] > 10.0:
         card.add(clip, "decode/track speed", f"{decode_s / track_s:.2f}", "≥ 0.9",
@@ -1002,8 +1003,9 @@ def run_rover(repo: Path, yupi_python: Path | None, card: Scorecard) -> None:
           f"to RGB alone {decode_s:.2f} s "
           f"(ratio decode/track {decode_s / track_s:.2f}; aim ≥ 0.9 on clips over 10 s)")
     score_common(card, name, result, "led", track_s, decode_s)
-    card.add(name, "ok rows with σ ≥ radius or not finite (pivot)",
-             str(sure_of_nothing(result, "pivot")), "0", sure_of_nothing(result, "pivot") == 0)
+    unsure = sure_of_nothing(result, "pivot")
+    card.add(name, "ok rows with σ ≥ radius or not finite (pivot)", str(unsure), "0",
+             unsure == 0)
 
 
 def main() -> None:

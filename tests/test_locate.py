@@ -489,11 +489,11 @@ def test_a_placed_marker_whose_hue_blob_lies_off_its_disc_is_learned_at_its_disc
     off = Blob(60.3, 49.1, np.pi * 4.0**2, np.pi / 4, 1.0)
     spec = next(s for s in DEFAULT_MARKERS if s.name == "B")
     placed = MarkerState(replace(spec, near_px=(60.0, 50.0)))
-    assert not _off_its_blob(frame, placed, off, fit, off.radius)
+    assert not _off_its_blob(frame, placed, off, fit)
     # Not placed by the user, only the blob's own centroid is trusted.
-    assert _off_its_blob(frame, MarkerState(spec), off, fit, off.radius)
+    assert _off_its_blob(frame, MarkerState(spec), off, fit)
     # A fit pulled off a blob that is the disc (the wire's pull) is refused, placed or not.
     on = replace(off, y=50.6)
     pulled = Centre(60.3, 49.1, 0.05, 4.0, True)
-    assert _off_its_blob(frame, placed, on, pulled, on.radius)
-    assert not _off_its_blob(frame, placed, on, fit, on.radius)
+    assert _off_its_blob(frame, placed, on, pulled)
+    assert not _off_its_blob(frame, placed, on, fit)

@@ -333,6 +333,16 @@ def _followed(frame: Frame, state: MarkerState, pred: tuple[float, float],
     return *again, True, _plausible(again[0], pred, state)
 
 
+def _coverage_around(frame: Frame, state: MarkerState, at: tuple[float, float],
+                     radius: float) -> tuple[NDArray, int, int]:
+    """The marker's coverage in ``frame`` around ``at`` (px) for a disc of ``radius``
+    (px), in its learned colour (:func:`.coverage.local_coverage`), and the patch's
+    top-left pixel."""
+    patch, x0, y0 = patch_around(frame, at[0], at[1], radius + 9)
+    alpha, _ = local_coverage(patch, x0, y0, at, radius, state.colour, bool(state.spec.tone))
+    return alpha, x0, y0
+
+
 def _ellipse_learned(state: MarkerState) -> dict[str, float | int | None]:
     """What ``run.json`` says of a marker's ellipse learned without a calibration
     (:mod:`.ellipse`): the ratio of its axes and its longer axis's direction (degrees
@@ -357,9 +367,7 @@ def _measure_shape(frame: Frame, state: MarkerState, centre: Centre,
     made A 0.950 : 1 (bench/sma_bed_apart.py)."""
     state.shape_tries += 1
     radius = state.radius
-    patch, x0, y0 = patch_around(frame, centre.x, centre.y, radius + 9)
-    alpha, _ = local_coverage(patch, x0, y0, (centre.x, centre.y), radius, state.colour,
-                              bool(state.spec.tone))
+    alpha, x0, y0 = _coverage_around(frame, state, (centre.x, centre.y), radius)
     edge = centre.params[3] if centre.params is not None else 1.0
     if wire_line is not None:
         alpha = np.where(wire_band(alpha.shape, x0, y0, wire_line, edge, radius), np.nan,
@@ -512,8 +520,7 @@ def _wire_band_px(centre: Centre) -> float:
 LEARN_DRIFT = 0.2
 
 
-def _off_its_blob(frame: Frame, state: MarkerState, blob: Blob, centre: Centre,
-                  radius: float) -> bool:
+def _off_its_blob(frame: Frame, state: MarkerState, blob: Blob, centre: Centre) -> bool:
     """Does a printed disc's fit, while its size is learned, lie more than
     :data:`LEARN_DRIFT` of its blob's radii from the blob's centroid, where that
     centroid is the disc's? The wire's pull moves the fit off the blob, while the
@@ -534,10 +541,9 @@ def _off_its_blob(frame: Frame, state: MarkerState, blob: Blob, centre: Centre,
         # own centroid is trusted (held to either, OpenCV's box.mp4, which has no
         # markers, had its default C taken in 39 % of its frames, not 12 %).
         return True
-    patch, x0, y0 = patch_around(frame, blob.x, blob.y, radius + 9)
-    alpha, _ = local_coverage(patch, x0, y0, (blob.x, blob.y), radius, state.colour,
-                              bool(state.spec.tone))
-    middle = weighted_centroid(alpha, x0, y0, (blob.x, blob.y), radius, noise_alpha=0.05)
+    alpha, x0, y0 = _coverage_around(frame, state, (blob.x, blob.y), blob.radius)
+    middle = weighted_centroid(alpha, x0, y0, (blob.x, blob.y), blob.radius,
+                               noise_alpha=0.05)
     if not middle.ok or np.hypot(middle.x - blob.x, middle.y - blob.y) <= limit:
         return True
     return bool(np.hypot(centre.x - middle.x, centre.y - middle.y) > limit)
@@ -594,9 +600,7 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
         # away from the light, and pulls a disc fit toward it: that one is centred
         # by its rim from now on (decided once, so that a flat marker partly hidden
         # later is not taken for a ball: its rim would be half the cover's edge).
-        patch, x0, y0 = patch_around(frame, centre.x, centre.y, centre.radius + 9)
-        alpha, _ = local_coverage(patch, x0, y0, (centre.x, centre.y), centre.radius,
-                                  state.colour, luminance)
+        alpha, x0, y0 = _coverage_around(frame, state, (centre.x, centre.y), centre.radius)
         # The crank-slider's wire is tied at B and may cross A: on a printed disc a
         # dark line is the wire, not shading.
         ball = shaded(alpha, x0, y0, (centre.x, centre.y), centre.radius,
@@ -614,7 +618,7 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
                 # acquisition): a printed disc is fitted as one.
                 return _or_held(frame, state, blob, (None, None, "refine_failed"))
             if (state.learning or state.radius is None) and _off_its_blob(
-                    frame, state, blob, centre, radius):
+                    frame, state, blob, centre):
                 return None, None, "refine_failed"
             return _or_held(frame, state, blob,
                             _whole_or_refitted(frame, state, centre, seen, radius, luminance,
