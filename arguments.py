@@ -224,7 +224,7 @@ def _check_command(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("check", help="track a video as is and again with invisible ±1 DN "
                        "patterns: how far each marker's fixes move, against their σ")
     p.add_argument("video", help="video file or folder of images")
-    p.add_argument("--marker", action="append", metavar="NAME=COLOUR[@X,Y]",
+    p.add_argument("--marker", action="append", metavar="NAME=COLOUR[:SHAPE][@X,Y]",
                    help="as for `track` (default: A=green B=red C=blue)")
     p.add_argument("--patterns", type=_positive_int, default=3, metavar="N",
                    help="how many patterns to track it with (default: 3; each costs a track)")
@@ -250,10 +250,12 @@ def _track_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--roi", type=_roi, metavar="X,Y,W,H",
                    help="look for markers only in this rectangle of the frame (px: top-left "
                         "corner, width, height); positions stay in the whole frame's pixels")
-    p.add_argument("--marker", action="append", metavar="NAME=COLOUR[@X,Y]",
+    p.add_argument("--marker", action="append", metavar="NAME=COLOUR[:SHAPE][@X,Y]",
                    help="a marker and its colour: red, green, blue, yellow, …, a hue in "
                         "degrees, #RRGGBB, or white/black/grey (found by contrast); @X,Y says "
-                        "where it is at first (px). Repeat per marker. Naming only A, B or "
+                        "where it is at first (px). :disc (a printed flat disc) or :blob (a "
+                        "ball, an LED, tape) says what it is: A, B, C are discs, others "
+                        "blobs, unless said. Repeat per marker. Naming only A, B or "
                         "C recolours them; naming any other tracks exactly the named ones. "
                         "C=none: no slider marker, θ is A→B's angle from the x axis. "
                         "Defaults: A=green B=red C=blue")

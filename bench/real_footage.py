@@ -867,14 +867,17 @@ ARM_MM = 66.0
 
 
 def arm_rate(video: Path, theirs: pd.DataFrame, pivot: NDArray, off: int, last: int) -> None:
-    """The product's own kinematics of the arm (``--marker C=none``, a 0.2 s window: the
-    one leave-one-out picks is set by the 5 s at rest) against yupi's: the mean rate
+    """The product's own kinematics of the arm (``--marker C=none``, the LED as a blob B,
+    a 0.2 s window: the one leave-one-out picks is set by the 5 s at rest) against
+    yupi's: the mean rate
     over the move, from the first to the last frame both found, of our θ and of the
     angle of yupi's LED about our pivot's fix at rest, and about our pivot's fix in those
     two frames (our θ's own centre)."""
     _, led, pivot_marker = ROVER
-    specs = parse_markers(["A=" + pivot_marker.split("=", 1)[1], "B=" + led.split("=", 1)[1],
-                           "C=none"])
+    # The LED is no printed disc: B said to be a blob (as disc, it was found in 42 of the
+    # 46 frames of the move, and ω spanned 34 of them).
+    specs = parse_markers(["A=" + pivot_marker.split("=", 1)[1],
+                           "B=" + led.split("=", 1)[1].replace("@", ":blob@"), "C=none"])
     with tempfile.TemporaryDirectory() as tmp:
         run = track_run(video, tmp, ("A", "B", ARM_MM), specs=specs, window_s=0.2)
     kin = run.kinematics.set_index("frame")
@@ -898,7 +901,7 @@ def arm_rate(video: Path, theirs: pd.DataFrame, pivot: NDArray, off: int, last: 
     moving = swept(pivots.loc[[a, b]].to_numpy(float))
     omega = kin.loc[a:b, "omega_rad_s"]
     print(f"  the arm's rate over the move (frames {a}–{b}): {ours:.4f} rad/s from our θ "
-          f"(`--marker A=… B=… C=none`), {peer:.4f} from yupi's LED about our pivot's fix "
+          f"(`--marker A=… B=…:blob@… C=none`), {peer:.4f} from yupi's LED about our pivot's fix "
           f"at rest ({100 * (ours / peer - 1):+.1f} %), {moving:.4f} about our pivot's fix in "
           f"those two frames ({100 * (ours / moving - 1):+.1f} %); our ω there "
           f"{np.nanmin(omega):.3f}–"

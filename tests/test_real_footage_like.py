@@ -111,10 +111,18 @@ def test_markers_as_people_type_them():
     assert [s.name for s in specs] == ["ball", "cart"]
     assert specs[0].tone == "white" and specs[1].near_px == (10.0, 20.0)
     assert specs[1].hue_deg == pytest.approx(132.0, abs=0.5)  # g max, (b − r)/(g − r) = 0.2
+    # A shape after the colour (before or after the place): A, B, C are discs unless
+    # said to be blobs, other markers blobs unless said to be discs.
+    for item in ("B=green:blob@40,60", "B=green@40,60:BLOB"):
+        specs = parse_markers([item])
+        assert [s.flat for s in specs] == [True, False, True]
+        assert specs[1].near_px == (40.0, 60.0) and specs[1].hue_deg == 120.0
+    assert [s.flat for s in parse_markers(["ball=red:disc", "cart=red"])] == [True, False]
     assert MarkerSpec.from_colour("x", "#f0f0f0").tone == "white"
     assert MarkerSpec.from_colour("x", "#202020").tone == "black"
     for bad in (["ball"], ["=red"], ["ball=#12345"], ["ball=#zzzzzz"], ["ball=white@1"],
-                ["ball=white@a,b"], ["ball=red", "ball=blue"], ["ball=mauve"]):
+                ["ball=white@a,b"], ["ball=red", "ball=blue"], ["ball=mauve"],
+                ["B=red:ball"], ["ball=red:"]):
         with pytest.raises(CranktrackError):
             parse_markers(bad)
 
@@ -538,6 +546,10 @@ def test_the_crank_sliders_flat_markers_are_never_taken_from_a_shaded_ball():
     named = locate(image, parse_markers(["ball=blue@90,70"])).set_index("marker")
     assert named.at["ball", "status"] == "ok"
     assert np.hypot(named.at["ball", "x_px"] - 90.3, named.at["ball", "y_px"] - 70.6) < 0.3
+    # ...and C said to be a blob (a ball on the slider) is found as the named ball is.
+    said = locate(image, parse_markers(["C=blue:blob@90,70"])).set_index("marker")
+    assert said.at["C", "status"] == "ok"
+    assert np.hypot(said.at["C", "x_px"] - 90.3, said.at["C", "y_px"] - 70.6) < 0.3
 
 
 def test_a_marker_first_seen_as_a_speck_is_learned_at_its_real_size():

@@ -246,16 +246,26 @@ DEFAULT_MARKERS: tuple[MarkerSpec, ...] = tuple(
     for name, colour in (("A", "green"), ("B", "red"), ("C", "blue")))
 
 
+#: What a marker is, said after its colour (``B=green:blob``): a printed flat disc,
+#: or any compact blob of its colour (a ball, an LED, a strip of tape, a sticker).
+SHAPES = ("disc", "blob")
+
+
 def parse_markers(items: list[str]) -> tuple[MarkerSpec, ...]:
-    """Markers from ``NAME=COLOUR[@X,Y]`` items (see :meth:`MarkerSpec.from_colour`).
+    """Markers from ``NAME=COLOUR[:SHAPE][@X,Y]`` items (see
+    :meth:`MarkerSpec.from_colour`).
 
     Naming only the crank-slider's A, B or C changes their colours and keeps the
     others at their defaults; naming any other marker tracks exactly the named
     ones, so a ball or a cart is not searched for A, B and C as well. ``C=none``
     says the slider carries no marker: A and B are tracked alone (a crank on its
     pivot, an arm that turns), and θ is then measured from the plane's x axis.
+    ``SHAPE`` (:data:`SHAPES`) says what the marker is: A, B and C are printed discs
+    (``disc``, :attr:`MarkerSpec.flat`) unless said to be a ``blob`` (an LED or a
+    ball on the crank); any other marker is a blob unless said to be a disc.
     """
     given: dict[str, MarkerSpec] = {}
+    shapes: dict[str, str] = {}
     without: set[str] = set()
     for item in items:
         name, sep, colour = item.partition("=")
@@ -270,6 +280,15 @@ def parse_markers(items: list[str]) -> tuple[MarkerSpec, ...]:
             without.add(name)
             continue
         colour, at, where = colour.partition("@")
+        colour, said, shape = colour.partition(":")
+        if not said:  # said after the place instead: B=green@40,60:blob
+            where, said, shape = where.partition(":")
+        if said:
+            shape = shape.strip().lower()
+            if shape not in SHAPES:
+                raise CranktrackError(f"--marker {item!r}: the shape after : is disc (a "
+                                      "printed flat disc) or blob (a ball, an LED, tape)")
+            shapes[name] = shape
         spec = MarkerSpec.from_colour(name, colour)
         if at:
             try:
@@ -290,10 +309,13 @@ def parse_markers(items: list[str]) -> tuple[MarkerSpec, ...]:
         raise CranktrackError("C=none is for the crank-slider's markers; with markers of "
                               "other names only the named ones are tracked anyway")
     if (given or without) and set(given) <= defaults:
-        # Recoloured, still the crank-slider's flat discs (less any said to be none).
-        return tuple(replace(given[s.name], flat=True) if s.name in given else s
+        # Recoloured, still the crank-slider's flat discs unless said to be blobs (less
+        # any said to be none).
+        return tuple(replace(given[s.name], flat=shapes.get(s.name) != "blob")
+                     if s.name in given else s
                      for s in DEFAULT_MARKERS if s.name not in without)
-    return tuple(given.values()) or DEFAULT_MARKERS
+    return tuple(replace(spec, flat=shapes.get(name) == "disc")
+                 for name, spec in given.items()) or DEFAULT_MARKERS
 
 
 #: The shorter side (px) under which a blob's box does not tell a disc from a square
