@@ -44,6 +44,25 @@ def draw(discs: list[tuple[float, float, float, tuple[float, float, float]]],
 WHITE = (235.0, 232.0, 225.0)
 
 
+@pytest.mark.parametrize("size", [(1, 1), (10, 7), (15, 40), (16, 16), (31, 33), (100, 3),
+                                  (181, 243)])
+def test_the_surroundings_of_a_white_or_black_marker_are_opencvs_opening_and_closing(size):
+    import cv2
+
+    from cranktrack.tracker.markers import _TONE_KERNEL, _opened
+
+    # OpenCV's morphology with the same disc is the truth, pixel for pixel, on noise,
+    # sparse specks and smooth shading, and on images smaller than the disc.
+    rng = np.random.default_rng(size[0] * 1000 + size[1])
+    noise = rng.integers(0, 256, size, dtype=np.uint8)
+    for image in (noise, ((rng.random(size) < 0.05) * 255).astype(np.uint8),
+                  cv2.GaussianBlur(noise, (0, 0), 3)):
+        assert np.array_equal(_opened(image, True),
+                              cv2.morphologyEx(image, cv2.MORPH_OPEN, _TONE_KERNEL))
+        assert np.array_equal(_opened(image, False),
+                              cv2.morphologyEx(image, cv2.MORPH_CLOSE, _TONE_KERNEL))
+
+
 def test_a_white_ball_on_black_is_found_by_its_contrast_beside_a_bright_bar():
     def stick(image):  # a metre stick: a tall bright bar, not a marker
         image[20:160, 150:158] = (230.0, 225.0, 200.0)

@@ -52,21 +52,63 @@ TONE_SCALES = (2, 4, 8)
 WIDE_OVER = 0.25
 
 
+#: :data:`_TONE_KERNEL` row by row: each half-width (px) its rows have, and their offsets
+#: from the middle.
+_KERNEL_ROWS = tuple(
+    (half, tuple(i - _TONE_KERNEL.shape[0] // 2 for i, row in enumerate(_TONE_KERNEL)
+                 if row.any() and int(np.flatnonzero(row).max()) - _TONE_KERNEL.shape[1] // 2
+                 == half))
+    for half in sorted({int(np.flatnonzero(row).max()) - _TONE_KERNEL.shape[1] // 2
+                        for row in _TONE_KERNEL if row.any()}))
+
+
+def _by_disc(image: NDArray[np.uint8], dilate: bool) -> NDArray[np.uint8]:
+    """The erosion (``dilate``: dilation) of ``image`` by :data:`_TONE_KERNEL`, equal to
+    OpenCV's ``erode`` (``dilate``) with it, pixels past the edge left out.
+
+    The disc is the union of its rows, so each pixel takes the extreme of one-row
+    erosions (one per half-width, each fast for a straight line) of the rows above and
+    below. OpenCV takes a kernel of another shape point by point: on a 1280×720 frame
+    (Tracker's car clip, a lost white marker's whole-frame search) an opening took
+    11-15 ms this way against 6 ms (a test checks both give the same pixels)."""
+    extreme = np.maximum if dilate else np.minimum
+    line = cv2.dilate if dilate else cv2.erode
+    h = image.shape[0]
+    out = np.full_like(image, 0 if dilate else 255)
+    # One buffer for the one-row erosions, taken in turn: ten fresh frame-sized arrays
+    # a call made it slower than OpenCV's own (15 against 11 ms), their pages new each time.
+    row = np.empty_like(image)
+    for half, offsets in _KERNEL_ROWS:
+        line(image, np.ones((1, 2 * half + 1), np.uint8), dst=row)
+        for dy in offsets:
+            # A kernel row dy below the middle reaches the image row dy below each pixel.
+            if abs(dy) >= h:
+                continue
+            if dy >= 0:
+                extreme(out[:h - dy], row[dy:], out=out[:h - dy])
+            else:
+                extreme(out[-dy:], row[:h + dy], out=out[-dy:])
+    return out
+
+
+def _opened(value: NDArray[np.uint8], brighter: bool) -> NDArray[np.uint8]:
+    """The opening (``brighter``) or closing of ``value`` by :data:`_TONE_KERNEL`."""
+    return _by_disc(_by_disc(value, not brighter), brighter)
+
+
 def _tone_contrast(value: NDArray[np.uint8], brighter: bool, scale: int = 1
                    ) -> NDArray[np.uint8]:
     """How much brighter (``brighter``) or darker than its surroundings each pixel of a
     value image is, DN: a top-hat (black-hat) with :data:`_TONE_KERNEL`, whose
     opening (closing) is taken on the image ``scale`` times smaller and brought back
     to size."""
-    op = cv2.MORPH_OPEN if brighter else cv2.MORPH_CLOSE
     if scale > 1:
         h, w = value.shape
         small = cv2.resize(value, (max(w // scale, 1), max(h // scale, 1)),
                            interpolation=cv2.INTER_AREA)
-        around = cv2.resize(cv2.morphologyEx(small, op, _TONE_KERNEL), (w, h),
-                            interpolation=cv2.INTER_LINEAR)
+        around = cv2.resize(_opened(small, brighter), (w, h), interpolation=cv2.INTER_LINEAR)
     else:
-        around = cv2.morphologyEx(value, op, _TONE_KERNEL)
+        around = _opened(value, brighter)
     return cv2.subtract(value, around) if brighter else cv2.subtract(around, value)
 
 
