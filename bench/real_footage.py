@@ -41,7 +41,7 @@ import tempfile
 import time
 import xml.etree.ElementTree as ET
 import zipfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
@@ -50,7 +50,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import CACHE, decode_only
+from common import CACHE, Scorecard, decode_only, sure_of_nothing
 from pendulum import G, plane_swing, sphere_swing
 
 from cranktrack.calibration.readout import readout_from_flight, tilted_plane_residual
@@ -85,42 +85,6 @@ class Clip:
     video: str = ""
     first: int = 0
     step: int = 1
-
-
-@dataclass
-class Scorecard:
-    """#20's "Done when", clip by clip: each figure the bench measured against its aim,
-    gathered as the clips run and printed last (:meth:`show`)."""
-
-    rows: list[tuple[str, str, str, str, bool]] = field(default_factory=list)
-
-    def add(self, clip: str, what: str, figure: str, aim: str, met: bool) -> None:
-        """One measured figure of ``clip`` and whether it meets ``aim``."""
-        self.rows.append((clip, what, figure, aim, bool(met)))
-
-    def show(self) -> None:
-        """The table, then how many figures meet their aims."""
-        if not self.rows:
-            return
-        print("\n#20's aims, as measured in this run (the lines above say why each is so):")
-        widths = [max(len(r[k]) for r in self.rows) for k in range(4)]
-        for clip, what, figure, aim, met in self.rows:
-            print(f"  {clip:<{widths[0]}}  {what:<{widths[1]}}  {figure:>{widths[2]}}  "
-                  f"aim {aim:<{widths[3]}}  {'met' if met else 'NOT met'}")
-        print(f"  {sum(r[4] for r in self.rows)} of {len(self.rows)} met")
-
-
-def sure_of_nothing(result: TrackResult, name: str) -> int:
-    """Rows of marker ``name`` that are ``ok`` with a σ that is not finite or not under
-    the radius the run learned for it (#20: there must be none)."""
-    tab = result.tracks
-    ok = tab[f"{name}_ok"].to_numpy(bool)
-    sigma = tab[f"{name}_sigma_px"].to_numpy(float)
-    radius = (result.learned.get(name) or {}).get("radius_px")
-    bad = ok & ~np.isfinite(sigma)
-    if radius is not None:
-        bad |= ok & ~(sigma < radius)
-    return int(bad.sum())
 
 
 def score_common(card: Scorecard, clip: str, result: TrackResult, name: str,
