@@ -93,3 +93,29 @@ def test_only_a_clear_ellipse_is_settled():
     assert axis_ratio(*got) == pytest.approx(0.9, abs=0.003)
     # The longer axis lies at half the angle of (−u, −v): (240° − 180°) / 2.
     assert long_axis_deg(*got) == pytest.approx(30.0, abs=1.0)
+
+
+@pytest.mark.parametrize("p", [(30.2, 40.7, 9.0, 0.6, 0.9, 0.05, 0.12, -0.2),
+                               (31.0, 39.5, 6.5, 1.8, 1.1, -0.1, -0.4, 0.25),
+                               (30.0, 40.0, 12.0, 0.3, 0.8, 0.0, 0.0, 0.0)])
+def test_the_ellipse_fits_jacobian_is_its_models_slope(p):
+    from scipy.optimize import approx_fprime
+    from scipy.special import ndtr
+
+    from cranktrack.tracker.ellipse import ellipse_jacobian, metric_of
+
+    # The second method: differences of the model written out here, by scipy.
+    yy, xx = np.mgrid[25:56, 15:46]
+    X, Y = xx.ravel().astype(float), yy.ravel().astype(float)
+
+    def model(q: np.ndarray, i: int) -> float:
+        g11, g12, g22 = metric_of(q[6], q[7])
+        dx, dy = X[i] - q[0], Y[i] - q[1]
+        d = math.sqrt(g11 * dx * dx + 2 * g12 * dx * dy + g22 * dy * dy)
+        return q[5] + q[4] * ndtr((q[2] - d) / q[3])
+
+    p = np.array(p)
+    J = ellipse_jacobian(p, X, Y)
+    for i in range(0, len(X), 37):
+        numeric = approx_fprime(p, model, 1e-7, i)
+        assert np.allclose(J[i], numeric, rtol=1e-4, atol=1e-5), (i, J[i], numeric)
