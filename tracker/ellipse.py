@@ -31,8 +31,9 @@ from .centre import Centre
 
 #: Resting fixes of a marker whose ellipse is measured before it is settled.
 SHAPE_FRAMES = 12
-#: ...tried on at most this many: a fit takes 6 ms (median of 36 on bench/tilted_bed.py),
-#: and a disc whose fits keep failing would cost that in every frame it rests.
+#: ...tried on at most this many: a fit took 6 ms (median of 36 on bench/tilted_bed.py;
+#: about 3 ms since its Jacobian is in closed form), and a disc whose fits keep failing
+#: would cost that in every frame it rests.
 SHAPE_TRIES = 3 * SHAPE_FRAMES
 #: An ellipse whose axes are in a ratio above this is taken as round. What lies around a
 #: disc makes a round one look a little stretched: on the second renderer's SMA bed
