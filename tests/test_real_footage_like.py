@@ -1200,3 +1200,52 @@ def test_a_marker_placed_too_far_from_where_it_is_is_named_with_its_place(tmp_pa
     assert not result.tracks["dot_ok"].any()
     said = [p for p in result.problems if "never within reach" in p]
     assert len(said) == 1 and "--marker dot=0@100,80" in said[0], result.problems
+
+
+def test_a_blobs_inner_disc_is_sought_wherever_it_may_be_found():
+    import cv2
+
+    from cranktrack.tracker import markers
+
+    # _blobs skips the distance map of blobs that cannot hold a disc that fills enough
+    # of them; the truth is the map taken for every blob that is not a disc. (Clear of
+    # the image's edge, where the map takes the outside as far and a strip 5 px wide
+    # along it "holds" a disc of radius 5.5, which the box's size rules out.)
+    rng = np.random.default_rng(11)
+    spec = MarkerSpec("m", hue_deg=0.0)
+    for _ in range(40):
+        mask = np.zeros((90, 120), np.uint8)
+        inside = mask[20:70, 20:100]  # a view: what is drawn past it is cut off
+        for _ in range(12):
+            x, y = (int(v) for v in rng.integers(-5, 85, 2))
+            kind = rng.integers(3)
+            if kind == 0:
+                cv2.rectangle(inside, (x, y), (x + int(rng.integers(1, 6)),
+                                               y + int(rng.integers(1, 25))), 255, -1)
+            elif kind == 1:
+                cv2.ellipse(inside, (x, y), (int(rng.integers(1, 9)), int(rng.integers(1, 9))),
+                            float(rng.uniform(0, 180)), 0, 360, 255, -1)
+            else:
+                cv2.line(inside, (x, y), (x + int(rng.integers(-20, 20)),
+                                          y + int(rng.integers(-20, 20))), 255,
+                         int(rng.integers(1, 4)))
+        got = markers._blobs(mask, spec, 0, 0)
+        n, labels, stats, centroids = markers.components(mask)
+        want = []
+        for k in range(1, n):
+            area = float(stats[k, cv2.CC_STAT_AREA])
+            if area < spec.min_area_px:
+                continue
+            w, h = stats[k, cv2.CC_STAT_WIDTH], stats[k, cv2.CC_STAT_HEIGHT]
+            blob = markers.Blob(float(centroids[k][0]), float(centroids[k][1]), area,
+                                area / float(w * h), float(w) / float(h))
+            want.append(blob if blob.disc_like()
+                        else markers._core(blob, labels, k, stats[k], 0, 0))
+        assert len(got) == len(want)
+        # The same blobs (OpenCV numbers them by 2×2 blocks, so a cut may order them
+        # otherwise), to the rounding of the cut's offset.
+        got, want = (sorted(b, key=lambda q: (round(q.x, 6), round(q.y, 6))) for b in (got, want))
+        for g, b in zip(got, want, strict=True):
+            assert g.cored == b.cored
+            assert np.allclose([g.x, g.y, g.area, g.fill, g.aspect],
+                               [b.x, b.y, b.area, b.fill, b.aspect], rtol=1e-12, atol=1e-12)

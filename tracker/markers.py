@@ -500,6 +500,14 @@ def _blobs(mask: NDArray[np.uint8], spec: MarkerSpec, x0: int, y0: int) -> list[
     x, y = stats[:, cv2.CC_STAT_LEFT], stats[:, cv2.CC_STAT_TOP]
     clear = (x > 0) & (y > 0) & (x + w < W) & (y + h < H)
     cored &= ~((side <= 2) & clear)
+    if cored.any():
+        # Nor has a blob none of whose pixels has all its neighbours in it: each then lies
+        # within 1.4 px of one outside (radius 1.9), so _core would give the blob back.
+        # Most pieces of a busy frame are such: on OpenCV's vtest.avi a lost marker's
+        # whole-frame search measured 264 of them, a third of its time.
+        inner = np.zeros(n, bool)
+        inner[labels[cv2.erode(mask, np.ones((3, 3), np.uint8)) > 0]] = True
+        cored &= inner
     for k in np.flatnonzero(area >= spec.min_area_px):
         if k == 0 or k in merged:
             continue
