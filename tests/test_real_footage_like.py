@@ -141,7 +141,7 @@ def test_markers_as_people_type_them():
     assert MarkerSpec.from_colour("x", "#202020").tone == "black"
     for bad in (["ball"], ["=red"], ["ball=#12345"], ["ball=#zzzzzz"], ["ball=white@1"],
                 ["ball=white@a,b"], ["ball=red", "ball=blue"], ["ball=mauve"],
-                ["B=red:ball"], ["ball=red:"]):
+                ["B=red:ball"], ["ball=red:"], ["C=none:blob"], ["C=none@3,4"]):
         with pytest.raises(CranktrackError):
             parse_markers(bad)
 

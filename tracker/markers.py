@@ -315,6 +315,10 @@ def parse_markers(items: list[str]) -> tuple[MarkerSpec, ...]:
         if not sep or not name:
             raise CranktrackError(f"--marker {item!r} is not NAME=COLOUR, e.g. B=red or "
                                   "ball=white@131,208")
+        said_colour = colour.partition("@")[0].partition(":")[0].strip().lower()
+        if said_colour == "none" and colour.strip().lower() != "none":
+            raise CranktrackError(f"--marker {item!r}: a marker that is none has no shape or "
+                                  "place; write C=none")
         if colour.strip().lower() == "none":
             if name != "C":
                 raise CranktrackError(f"--marker {item!r}: only C, the slider's marker, may be "
