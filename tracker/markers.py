@@ -52,14 +52,19 @@ TONE_SCALES = (2, 4, 8)
 WIDE_OVER = 0.25
 
 
-#: :data:`_TONE_KERNEL` row by row: each half-width (px) its rows have, and their offsets
-#: from the middle.
-_KERNEL_ROWS = tuple(
-    (half, tuple(i - _TONE_KERNEL.shape[0] // 2 for i, row in enumerate(_TONE_KERNEL)
-                 if row.any() and int(np.flatnonzero(row).max()) - _TONE_KERNEL.shape[1] // 2
-                 == half))
-    for half in sorted({int(np.flatnonzero(row).max()) - _TONE_KERNEL.shape[1] // 2
-                        for row in _TONE_KERNEL if row.any()}))
+def _kernel_rows(kernel: NDArray[np.uint8]) -> tuple[tuple[int, tuple[int, ...]], ...]:
+    """A kernel symmetric about its middle (a disc), row by row: each half-width (px) its
+    rows have, and the offsets of those rows from the middle row."""
+    rows: dict[int, list[int]] = {}
+    for i, row in enumerate(kernel):
+        if row.any():
+            half = int(np.flatnonzero(row).max()) - kernel.shape[1] // 2
+            rows.setdefault(half, []).append(i - kernel.shape[0] // 2)
+    return tuple((half, tuple(offsets)) for half, offsets in sorted(rows.items()))
+
+
+#: :data:`_TONE_KERNEL` row by row (:func:`_kernel_rows`).
+_KERNEL_ROWS = _kernel_rows(_TONE_KERNEL)
 
 
 def _by_disc(image: NDArray[np.uint8], dilate: bool) -> NDArray[np.uint8]:
