@@ -78,8 +78,9 @@ def track(video: str | os.PathLike, markers: Mapping[str, str | float] | None = 
 
     ``markers`` maps names to colours as ``--marker`` takes them (``{"A": "green"}``,
     ``{"ball": "white"}``, a hue in degrees, ``"#RRGGBB"``, with a shape and a place:
-    ``{"B": "green:blob@423,111"}`` for an LED; default A green, B red, C blue). ``known_length`` ("A", "C", mm) sets the scale, or ``calibration`` names a
-    plane calibration file; without either the tracks stay in pixels and there are no
+    ``{"B": "green:blob@423,111"}`` for an LED; default A green, B red, C blue).
+    ``known_length`` ("A", "C", mm) sets the scale, or ``calibration`` names a plane
+    calibration file; without either the tracks stay in pixels and there are no
     kinematics. ``out`` is the run folder (default: ``<video name>_run`` beside the
     video). ``start_s``/``end_s`` (s), ``roi`` (x, y, w, h px), ``window_s`` and
     ``fill_gaps`` (frames) are the command's ``--start``, ``--end``, ``--roi``,
