@@ -431,6 +431,10 @@ def cmd_inspect(args: argparse.Namespace) -> int:
                 print(note)
         print("\nrename the ones you want and track them, e.g.:\n  cranktrack track "
               f"{shlex.quote(str(clip))}{fps} {picks} --out run")
+        if rig is None:
+            print("(for kinematics name them A, the pivot, B, the crank's tip, and C, the "
+                  "slider, or C=none; an A, B or C that is no printed disc, such as an LED or "
+                  "a ball, takes :blob after its colour: B=green:blob@X,Y)")
         if sequence and not args.fps:
             print(f"({video.name} is one of {sequence} numbered pictures: the command tracks "
                   "their folder; FPS is the rate they were taken at)")
