@@ -320,20 +320,19 @@ def parse_markers(items: list[str]) -> tuple[MarkerSpec, ...]:
         if not sep or not name:
             raise CranktrackError(f"--marker {item!r} is not NAME=COLOUR, e.g. B=red or "
                                   "ball=white@131,208")
-        said_colour = colour.partition("@")[0].partition(":")[0].strip().lower()
-        if said_colour == "none" and colour.strip().lower() != "none":
-            raise CranktrackError(f"--marker {item!r}: a marker that is none has no shape or "
-                                  "place; write C=none")
+        colour, at, where = colour.partition("@")
+        colour, said, shape = colour.partition(":")
+        if not said:  # said after the place instead: B=green@40,60:blob
+            where, said, shape = where.partition(":")
         if colour.strip().lower() == "none":
+            if at or said:
+                raise CranktrackError(f"--marker {item!r}: a marker that is none has no shape "
+                                      "or place; write C=none")
             if name != "C":
                 raise CranktrackError(f"--marker {item!r}: only C, the slider's marker, may be "
                                       "none; the kinematics need the pivot A and the crank's B")
             without.add(name)
             continue
-        colour, at, where = colour.partition("@")
-        colour, said, shape = colour.partition(":")
-        if not said:  # said after the place instead: B=green@40,60:blob
-            where, said, shape = where.partition(":")
         if said:
             shape = shape.strip().lower()
             if shape not in SHAPES:
