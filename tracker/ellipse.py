@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
+from scipy.optimize import OptimizeResult, least_squares
 from scipy.special import ndtr
 
 from .centre import Centre
@@ -90,6 +90,39 @@ def ellipse_of(alpha: NDArray, x0: float, y0: float, fit: Centre
     distance under the metric; the pixels within 3 px past the round fit's rim enter,
     with a soft-L1 loss (a wire across the disc, a speck), so a few pixels far off
     the model weigh less."""
+    out = _fitted(alpha, x0, y0, fit, "soft_l1")
+    if out is None:
+        return None
+    J = out.jac
+    dof = max(len(out.fun) - len(out.x), 1)
+    s2 = float(np.sum(out.fun ** 2)) / dof
+    try:
+        cov = np.linalg.inv(J.T @ J) * s2
+    except np.linalg.LinAlgError:
+        return None
+    se_u, se_v = math.sqrt(max(cov[6, 6], 0.0)), math.sqrt(max(cov[7, 7], 0.0))
+    u, v = float(out.x[6]), float(out.x[7])
+    if not all(map(math.isfinite, (u, v, se_u, se_v))):
+        return None
+    return u, v, se_u, se_v
+
+
+def ellipse_misfit(alpha: NDArray, x0: float, y0: float, fit: Centre) -> float | None:
+    """What an ellipse leaves unexplained of a disc's coverage patch ``alpha`` (as
+    :func:`ellipse_of` takes it, least squares without a robust loss): the RMS
+    residual over the fitted gain (coverage per coverage); None where the fit fails.
+    A disc seen at a slant leaves little, as a round disc does round; a patch of a
+    larger thing of the disc's colour, lit unevenly, does not."""
+    out = _fitted(alpha, x0, y0, fit, "linear")
+    if out is None or not out.x[4] > 0:
+        return None
+    return float(np.sqrt(np.mean(out.fun ** 2)) / out.x[4])
+
+
+def _fitted(alpha: NDArray, x0: float, y0: float, fit: Centre, loss: str
+            ) -> OptimizeResult | None:
+    """scipy's ``least_squares`` result of the ellipse model on ``alpha`` from the round
+    fit ``fit`` (:func:`ellipse_of`), under ``loss``; None where it fails."""
     if fit.params is None or not fit.ok:
         return None
     cx, cy, r, s, a, b = fit.params
@@ -116,23 +149,10 @@ def ellipse_of(alpha: NDArray, x0: float, y0: float, fit: Centre
         # a step, and the fit 5–6 ms (on the project's H.264 render, 36 fits 168 against
         # 104 ms; the shape terms the same to 4e-9).
         out = least_squares(residual, start, jac=jacobian, bounds=(lower, upper),
-                            loss="soft_l1", f_scale=0.1, x_scale="jac")
+                            loss=loss, f_scale=0.1, x_scale="jac")
     except (ValueError, np.linalg.LinAlgError):
         return None
-    if not out.success:
-        return None
-    J = out.jac
-    dof = max(len(A) - len(start), 1)
-    s2 = float(np.sum(out.fun ** 2)) / dof
-    try:
-        cov = np.linalg.inv(J.T @ J) * s2
-    except np.linalg.LinAlgError:
-        return None
-    se_u, se_v = math.sqrt(max(cov[6, 6], 0.0)), math.sqrt(max(cov[7, 7], 0.0))
-    u, v = float(out.x[6]), float(out.x[7])
-    if not all(map(math.isfinite, (u, v, se_u, se_v))):
-        return None
-    return u, v, se_u, se_v
+    return out if out.success else None
 
 
 def _ellipse_terms(p: NDArray, X: NDArray, Y: NDArray) -> tuple:
