@@ -746,8 +746,8 @@ def _decide_blob(frame: Frame, state: MarkerState, blob: Blob) -> None:
 #: A printed disc's first fit leaves a residual (RMS, in coverage) under this fraction
 #: of its gain, or an ellipse fitted to its patch does (:func:`.ellipse.ellipse_misfit`):
 #: the disc and its background explain it. Measured on first fits (scratch): printed
-#: discs on every render, the project's and the second renderer's with the wire across
-#: A, 0.10-0.19, and 0.06 on yupi's real red pivot; seen by a camera pitched 55°
+#: discs on the project's H.264 render and the second renderer's SMA bed (the wire across
+#: A included), 0.10-0.19, and 0.06 on yupi's real red pivot; seen by a camera pitched 55°
 #: (`bench/tilted_bed.py --tilt 55`, ellipses of axes 0.5-0.6) 0.32-0.50, as ellipses
 #: 0.11-0.17. OpenCV's vtest.avi's red door, lit unevenly and taken for the default B in
 #: 36 % of its frames, 1.50, as an ellipse 1.18; tree.avi's thing taken for C 0.95 and
