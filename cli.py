@@ -405,8 +405,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     else:
         rows = [["--marker", "colour", "x px", "y px", "radius px", "shape", "moves"]]
         rows += [[r.marker, r["name"], f"{r.x_px:.0f}", f"{r.y_px:.0f}", f"{r.radius_px:.1f}",
-                  ("disc" if r.disc_like and not r.strip else f"strip (aspect {r.aspect:.1f})")
-                  + (f", on {r.on}" if r.on else ""),
+                  r["shape"] + (f", on {r.on}" if r.on else ""),
                   "-" if later is None else ("yes" if r.moves else "no")]
                  for _, r in table.iterrows()]
         print(f"frame {frame.index} (t = {frame.t_s:.3f} s): {len(table)} candidate markers, "

@@ -286,6 +286,38 @@ def test_inspect_puts_a_ball_before_the_dark_cap_on_it_and_suggests_the_ball(tmp
     assert f", on {caps.iloc[0].on}" in out
 
 
+def test_inspect_names_each_blobs_outline_as_it_is_drawn():
+    from cranktrack.tracker.survey import survey
+
+    # Two touching balls of one colour make one blob twice as long as it is high; it
+    # was listed as a disc (of 28 px) on yupi's demo.avi, and a gap between things as a
+    # "strip (aspect 0.9)". What each outline is comes from the drawing. A square is
+    # given by its largest inner disc (what the tracker starts from), and said so.
+    def shapes(image):
+        image[112:128, 52:68] = (40.0, 80.0, 220.0)  # a blue square, 16 px
+        image[127:133, 135:165] = (230.0, 210.0, 40.0)  # a yellow strip, 30 × 6 px
+        image[48:72, 188:194] = (210.0, 40.0, 200.0)  # a magenta L, 24 px each way,
+        image[66:72, 188:212] = (210.0, 40.0, 200.0)  # 6 px wide: 252 px
+
+    image = draw([(50.0, 50.0, 8.0, (40.0, 170.0, 60.0)), (120.0, 50.0, 7.0, (200.0, 30.0, 40.0)),
+                  (134.0, 50.0, 7.0, (200.0, 30.0, 40.0))], extra=shapes)
+    table = survey(image, most=30)
+
+    def word(x, y):
+        near = table[np.hypot(table.x_px - x, table.y_px - y) < 3.0]
+        assert len(near) == 1, (x, y, table[["x_px", "y_px", "shape"]])
+        return near.iloc[0]["shape"]
+
+    assert word(50, 50) == "disc"
+    pair = word(127, 50)  # 28 × 14 px drawn; its thresholded box a pixel either way
+    assert pair.startswith("oval ") and 1.8 <= float(pair[5:-2]) <= 2.1, pair
+    assert word(59.5, 119.5) == "disc inside a blob"
+    assert word(149.5, 129.5) == "strip 5.0:1"
+    # The L's centroid: its upright less the corner, 108 px about (190.5, 56.5), and its
+    # foot, 144 px about (199.5, 68.5).
+    assert word((108 * 190.5 + 144 * 199.5) / 252, (108 * 56.5 + 144 * 68.5) / 252) == "irregular"
+
+
 def test_the_survey_pictures_labels_stay_in_the_frame_and_apart():
     from cranktrack.report.survey import _label_box
 

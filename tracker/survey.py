@@ -107,6 +107,35 @@ def _moved(table: pd.DataFrame, later: pd.DataFrame) -> NDArray[np.bool_]:
     return moved
 
 
+#: A disc-like blob whose box is longer one way than this is called an oval, not a
+#: disc, by :func:`shape_word`: a disc seen at a slant, a streak, or two blobs of one
+#: colour touching (two touching balls of yupi's demo.avi, 2:1, were listed as a disc of
+#: 28 px).
+ROUND_BOX = 1.3
+
+
+def shape_word(fill: float, aspect: float, disc_like: bool, strip: bool, cored: bool
+               ) -> str:
+    """What a blob's outline is, for people reading ``inspect``'s table: ``disc``,
+    ``oval L:1`` (disc-like but longer one way than :data:`ROUND_BOX`), ``strip L:1``
+    (a strip of tape, a streak, a filled rectangle), ``disc inside a blob`` (the largest
+    disc inside a blob of another shape that it fills most of: a square sticker, a ball
+    on a stalk of its colour; :func:`.markers.find_blobs` gives such a blob as that disc)
+    or ``irregular`` (none of these: a cross, a ragged patch, a gap between things).
+    ``L`` is the box's longer side over its shorter; ``fill`` is the blob's area over its
+    box's, ``aspect`` the box's width over its height, ``disc_like``, ``strip`` and
+    ``cored`` as :class:`.markers.Blob` has them (:meth:`~.markers.Blob.disc_like`,
+    :meth:`~.markers.Blob.elongated`, :attr:`~.markers.Blob.cored`)."""
+    longer = max(aspect, 1.0 / aspect) if aspect > 0 else float("inf")
+    if cored:
+        return "disc inside a blob"
+    if strip:
+        return f"strip {longer:.1f}:1"
+    if disc_like:
+        return "disc" if longer <= ROUND_BOX else f"oval {longer:.1f}:1"
+    return "irregular"
+
+
 #: A blob on a round blob of one colour at least this many times its radius is a part
 #: of it (a highlight, a dark spot or the cap of a ball), and a round blob up to this
 #: fraction of the frame's smaller side can hold such parts (wider ones are the scene).
@@ -147,7 +176,8 @@ def survey(rgb: NDArray[np.uint8], min_area_px: int = 12, most: int = 12,
     Returns a table with ``x_px``, ``y_px`` (blob centroid), ``radius_px`` (of a
     disc of the same area), ``fill`` (area over its box; π/4 for a disc),
     ``aspect``, ``strip`` (a strip or a square, centred by its coverage's centroid
-    when tracked), ``colour`` (``white``, ``black`` or the hue in degrees,
+    when tracked), ``shape`` (:func:`shape_word`: disc, oval, strip, a disc inside a
+    blob, or irregular), ``colour`` (``white``, ``black`` or the hue in degrees,
     rounded), ``name`` (the nearest colour name, for people), ``moves`` (with
     ``later``, a frame of the same clip a little later: the blob is not there
     then, at its place and size; else False), ``on`` (the ``m…`` of the larger
@@ -163,6 +193,7 @@ def survey(rgb: NDArray[np.uint8], min_area_px: int = 12, most: int = 12,
     if table.empty:
         return table.drop(columns="cored").assign(moves=pd.Series(dtype=bool),
                                                   on=pd.Series(dtype=str),
+                                                  shape=pd.Series(dtype=str),
                                                   marker=pd.Series(dtype=str))
     table["moves"] = (False if later is None else
                       _moved(table, _blobs_table(balanced_hsv(later, gains), min_area_px)))
@@ -190,8 +221,10 @@ def survey(rgb: NDArray[np.uint8], min_area_px: int = 12, most: int = 12,
         if all(np.hypot(r.x_px - table.at[j, "x_px"], r.y_px - table.at[j, "y_px"])
                > max(r.radius_px, 2.0) for j in kept):
             kept.append(i)
-    table = table.loc[kept].head(most).drop(
-        columns=["roundness", "too_big", "plain_disc", "speck", "cored", "part"])
+    table = table.loc[kept].head(most)
+    table["shape"] = [shape_word(r.fill, r.aspect, r.disc_like, r.strip, r.cored)
+                      for r in table.itertuples()]
+    table = table.drop(columns=["roundness", "too_big", "plain_disc", "speck", "cored", "part"])
     label = {i: f"m{k + 1}" for k, i in enumerate(table.index)}
     # A part whose holder fell out of the list (a duplicate place) is still a part.
     table["on"] = [label.get(h, "a larger blob") if h >= 0 else "" for h in table["holder"]]
