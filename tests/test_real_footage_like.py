@@ -286,6 +286,29 @@ def test_inspect_puts_a_ball_before_the_dark_cap_on_it_and_suggests_the_ball(tmp
     assert f", on {caps.iloc[0].on}" in out
 
 
+def test_a_disc_the_frames_edge_cuts_is_fitted_from_what_is_left_of_it(tmp_path):
+    import cv2
+
+    from cranktrack.tracker.video import open_frames
+
+    # A red disc of 10 px moves out past the frame's right edge (at x = 239.5). Cut by
+    # more than a pixel it was called partly covered, though the frame, not a cover,
+    # hides the rest and its fit uses no pixel there. Up to half out it is the marker;
+    # more than half out its centre would rest on an arc of its rim alone.
+    xs = np.linspace(150.0, 246.0, 33)  # 3 px a frame; 237 in, 240 more than half out
+    for i, x in enumerate(xs):
+        image = draw([(x, 90.3, 10.0, (200.0, 40.0, 40.0))], background=(150.0, 150.0, 140.0),
+                     seed=i)
+        cv2.imwrite(str(tmp_path / f"f{i:03d}.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+    tab = track(open_frames(tmp_path, fps=30.0), parse_markers(["m=red@150,90"])).tracks
+    ok = tab["m_ok"].to_numpy(bool)
+    half_in = xs <= 239.5 + 1e-9
+    assert ok[half_in].all(), tab.loc[half_in & ~ok, ["frame", "m_status"]]
+    assert not ok[~half_in].any()
+    err = np.hypot(tab["m_x_px"].to_numpy()[ok] - xs[ok], tab["m_y_px"].to_numpy()[ok] - 90.3)
+    assert err.max() < 0.05, err
+
+
 def test_inspect_names_each_blobs_outline_as_it_is_drawn():
     from cranktrack.tracker.survey import survey
 

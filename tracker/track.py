@@ -35,6 +35,7 @@ from .marker_state import (
     REST_REACH,
     REST_STEP,
     MarkerState,
+    disc_in_frame,
     focus_notes,
     nearer_notes,
 )
@@ -170,11 +171,20 @@ def _held_at(frame: Frame, state: MarkerState, at: tuple[float, float], reach: f
 
 
 def _teaching_nothing(centre: Centre, state: MarkerState) -> Centre:
-    """A held fit as the marker remembers it: it teaches nothing of its size, gain or
-    residual (its colour is still the middle's), and the next fit starts from the last
-    free fit's shape."""
+    """A held fit, or one of a disc the frame's edge cuts, as the marker remembers it:
+    it teaches nothing of its size, gain or residual (its colour is still the
+    middle's), and the next fit starts from the last free fit's shape (this one's, on
+    the marker's first find)."""
     return replace(centre, gain=np.nan, area=np.nan, rms_residual=np.nan, peak=np.nan,
-                   params=state.shape)
+                   params=centre.params if state.shape is None else state.shape)
+
+
+def _cut_by_edge(frame: Frame, centre: Centre) -> bool:
+    """Does the frame's edge cut the fitted disc? Its fit then saw only part of it: it
+    teaches the marker nothing of its size, gain, area or residual
+    (:func:`_teaching_nothing`)."""
+    return np.isfinite(centre.radius) and \
+        disc_in_frame(centre.x, centre.y, centre.radius, frame.size) < 1.0
 
 
 def _clear_of_edge(frame: Frame, r: float, x: float, y: float) -> bool:
@@ -234,13 +244,14 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
                 centre, seen, held, plausible = _followed(frame, state, pred, wire_line)
                 if state.try_light():
                     second = _followed(frame, state, pred, wire_line)
-                    if _likelier_lit(state, second[0], second[3] and state.whole(second[0]),
-                                     centre, plausible and state.whole(centre)):
+                    if _likelier_lit(state, second[0],
+                                     second[3] and state.whole(second[0], size=frame.size),
+                                     centre, plausible and state.whole(centre, size=frame.size)):
                         centre, seen, held, plausible = second
                     else:
                         state.lit = None
                 if plausible:
-                    if not state.whole(centre):
+                    if not state.whole(centre, size=frame.size):
                         return None, "partly_covered"
                     if state.nearing and not held and centre.radius > state.radius + GREW:
                         # Still coming nearer: its size is taken on before its rim
@@ -248,7 +259,8 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
                         # 0.040-0.082 px RMS off when lost and refound instead, not
                         # 0.026-0.047).
                         state.regrow(centre.radius)
-                    state.remember(_teaching_nothing(centre, state) if held else centre,
+                    state.remember(_teaching_nothing(centre, state)
+                                   if held or _cut_by_edge(frame, centre) else centre,
                                    seen, frame.index)
                     if not held and state.measuring_shape():
                         _measure_shape(frame, state, centre, wire_line)
@@ -309,7 +321,8 @@ def _locate(frame: Frame, state: MarkerState, t: float, hsv_cache: dict,
         state.radius = centre.radius
     elif _nearer(state, blob) and centre.radius > state.shape[2]:
         state.regrow(centre.radius)
-    state.remember(centre, seen, frame.index)
+    state.remember(_teaching_nothing(centre, state) if _cut_by_edge(frame, centre) else centre,
+                   seen, frame.index)
     return centre, "ok"
 
 
@@ -591,7 +604,7 @@ def _refine_blob(frame: Frame, state: MarkerState, blob: Blob, hsv_cache: dict
         _decide_blob(frame, state, blob)
     if state.extent is not None:
         centre, seen = _blob_centre(frame, state, (blob.x, blob.y), 2.0)
-        return _whole_and_honest(state, centre, seen)
+        return _whole_and_honest(state, centre, seen, size=frame.size)
     centre, seen = refine(frame, (blob.x, blob.y), radius, state.colour, luminance=luminance,
                           rim=state.rim, wire=state.spec.flat,
                           stretch=state.stretch_at(blob.x, blob.y))
@@ -662,7 +675,7 @@ def _or_held(frame: Frame, state: MarkerState, blob: Blob,
                 and state.from_place(blob.x, blob.y) > REST_REACH * r):
         return result
     held = _held_at(frame, state, (blob.x, blob.y), r, bool(state.spec.tone))
-    if held is None or _whole_and_honest(state, *held)[2]:
+    if held is None or _whole_and_honest(state, *held, size=frame.size)[2]:
         return result
     return _teaching_nothing(held[0], state), held[1], ""
 
@@ -684,7 +697,7 @@ def _whole_or_refitted(frame: Frame, state: MarkerState, centre: Centre,
         misfit = ellipse_misfit(alpha, x0, y0, centre)
         if misfit is None or misfit > FIRST_RESIDUAL:
             return None, None, "rejected"
-    first = _whole_and_honest(state, centre, seen, nearer)
+    first = _whole_and_honest(state, centre, seen, nearer, frame.size)
     if first[2] != "partly_covered" or centre.rim or state.shape is None \
             or len(state.shape) < 3:
         return first
@@ -692,7 +705,8 @@ def _whole_or_refitted(frame: Frame, state: MarkerState, centre: Centre,
                                init=(centre.x, centre.y, *state.shape[2:]),
                                luminance=luminance, rim=state.rim, wire=state.spec.flat,
                                stretch=state.stretch_at(centre.x, centre.y))
-    second = _whole_and_honest(state, again, seen_again, nearer) if again.ok else first
+    second = _whole_and_honest(state, again, seen_again, nearer, frame.size) if again.ok \
+        else first
     return second if not second[2] else first
 
 
@@ -767,9 +781,12 @@ def _explains_little(state: MarkerState, centre: Centre) -> bool:
 
 
 def _whole_and_honest(state: MarkerState, centre: Centre, seen: NDArray | None,
-                      nearer: bool = False) -> tuple[Centre | None, NDArray | None, str]:
+                      nearer: bool = False, size: tuple[int, int] | None = None
+                      ) -> tuple[Centre | None, NDArray | None, str]:
     """The centre if its fit is sound and shows the whole marker, else why not.
-    ``nearer``: fitted as the marker come nearer (:func:`_nearer`)."""
+    ``nearer``: fitted as the marker come nearer (:func:`_nearer`); ``size``: the
+    frame's (width, height) px, whose edge may cut the disc
+    (:meth:`.MarkerState.whole`)."""
     lo, hi = state.gain_range(GAIN_RANGE)
     # A first fit, whose colour is the blob's middle, has a gain of about 1 by making:
     # one far above that has run off (yupi's rover pivot, a soft disc in a dark ring,
@@ -781,7 +798,7 @@ def _whole_and_honest(state: MarkerState, centre: Centre, seen: NDArray | None,
     lo, hi = state.area_gates[-1]
     if state.radius is not None and not lo <= (centre.radius / state.radius) ** 2 <= hi:
         return None, None, "rejected"  # a fit of another size: a glint, a neighbour
-    if not state.whole(centre, nearer):
+    if not state.whole(centre, nearer, size):
         return None, None, "partly_covered"
     return centre, seen, ""
 
