@@ -46,8 +46,8 @@ DIMMED_MIN = 0.5
 
 #: A disc less than this fraction of which lies inside the frame is not taken from
 #: what is left: its centre would rest on an arc of its rim alone. A drawn disc of
-#: 10 px moving out past the frame's edge, fitted from its visible part, was 0.009 px
-#: off with 4.6 px of it out, 0.026 px with 7.4 px out and 0.022 px with half of it
+#: 10 px moving out past the frame's edge, fitted from its visible part, was 0.011 px
+#: off with 4.6 px of it out, 0.028 px with 7.4 px out and 0.022 px with half of it
 #: out (scratch, `tests/test_real_footage_like.py`'s drawing).
 LEAST_INSIDE = 0.5
 
@@ -442,8 +442,8 @@ class MarkerState:
         if self.residual is None or not np.isfinite(centre.rms_residual) or inside < 1.0:
             # Cut by the frame's edge, the disc's residual is no guide: the background
             # of the pixels by that edge is sampled past the rim, off the frame, so
-            # their coverage is not unmixed (a drawn disc of 10 px 1.9-7.3 px out left
-            # 9-27 times its usual residual, its fit 0.005-0.026 px off).
+            # their coverage is not unmixed (a drawn disc of 10 px 1.9-7.4 px out left
+            # 9-27 times its usual residual, its fit 0.005-0.028 px off).
             return True
         if centre.rms_residual <= RESIDUAL_LIMIT * max(self.residual, 0.01):
             return True
