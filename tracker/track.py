@@ -183,8 +183,8 @@ def _cut_by_edge(frame: Frame, centre: Centre) -> bool:
     """Does the frame's edge cut the fitted disc? Its fit then saw only part of it: it
     teaches the marker nothing of its size, gain, area or residual
     (:func:`_teaching_nothing`)."""
-    return np.isfinite(centre.radius) and \
-        disc_in_frame(centre.x, centre.y, centre.radius, frame.size) < 1.0
+    return bool(np.isfinite(centre.radius)
+                and disc_in_frame(centre.x, centre.y, centre.radius, frame.size) < 1.0)
 
 
 def _clear_of_edge(frame: Frame, r: float, x: float, y: float) -> bool:
