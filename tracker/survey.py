@@ -114,18 +114,17 @@ def _moved(table: pd.DataFrame, later: pd.DataFrame) -> NDArray[np.bool_]:
 ROUND_BOX = 1.3
 
 
-def shape_word(fill: float, aspect: float, disc_like: bool, strip: bool, cored: bool
-               ) -> str:
+def shape_word(aspect: float, disc_like: bool, strip: bool, cored: bool) -> str:
     """What a blob's outline is, for people reading ``inspect``'s table: ``disc``,
     ``oval L:1`` (disc-like but longer one way than :data:`ROUND_BOX`), ``strip L:1``
     (a strip of tape, a streak, a filled rectangle), ``disc inside a blob`` (the largest
     disc inside a blob of another shape that it fills most of: a square sticker, a ball
     on a stalk of its colour; :func:`.markers.find_blobs` gives such a blob as that disc)
     or ``irregular`` (none of these: a cross, a ragged patch, a gap between things).
-    ``L`` is the box's longer side over its shorter; ``fill`` is the blob's area over its
-    box's, ``aspect`` the box's width over its height, ``disc_like``, ``strip`` and
-    ``cored`` as :class:`.markers.Blob` has them (:meth:`~.markers.Blob.disc_like`,
-    :meth:`~.markers.Blob.elongated`, :attr:`~.markers.Blob.cored`)."""
+    ``L`` is the box's longer side over its shorter, ``aspect`` the box's width over
+    its height; ``disc_like``, ``strip`` and ``cored`` as :class:`.markers.Blob` has
+    them (:meth:`~.markers.Blob.disc_like`, :meth:`~.markers.Blob.elongated`,
+    :attr:`~.markers.Blob.cored`)."""
     longer = max(aspect, 1.0 / aspect) if aspect > 0 else float("inf")
     if cored:
         return "disc inside a blob"
@@ -222,7 +221,7 @@ def survey(rgb: NDArray[np.uint8], min_area_px: int = 12, most: int = 12,
                > max(r.radius_px, 2.0) for j in kept):
             kept.append(i)
     table = table.loc[kept].head(most)
-    table["shape"] = [shape_word(r.fill, r.aspect, r.disc_like, r.strip, r.cored)
+    table["shape"] = [shape_word(r.aspect, r.disc_like, r.strip, r.cored)
                       for r in table.itertuples()]
     table = table.drop(columns=["roundness", "too_big", "plain_disc", "speck", "cored", "part"])
     label = {i: f"m{k + 1}" for k, i in enumerate(table.index)}
