@@ -58,7 +58,14 @@ from .refine import (
     wire_band,
     wire_band_half_px,
 )
-from .scatter import found_xy, repeated_frames, with_scatter_floor
+from .scatter import (
+    WHOLE_PX,
+    drawn_at_whole_pixels,
+    found_xy,
+    repeated_frames,
+    whole_pixel_share,
+    with_scatter_floor,
+)
 from .search import (
     balance_gains,
     full_frame_blob,
@@ -1133,6 +1140,23 @@ def stair_notes(tracks: pd.DataFrame, specs: tuple[MarkerSpec, ...]) -> list[str
     return notes
 
 
+def whole_pixel_notes(tracks: pd.DataFrame, specs: tuple[MarkerSpec, ...]) -> list[str]:
+    """A sentence for each marker whose track lies on whole pixels as it moves
+    (:func:`.scatter.drawn_at_whole_pixels`)."""
+    notes = []
+    for s in specs:
+        xy = found_xy(tracks, s.name)
+        if drawn_at_whole_pixels(xy):
+            notes.append(
+                f"{s.name} lies on whole pixels: {100 * whole_pixel_share(xy):.0f} % of its "
+                f"places while it moves are within {WHOLE_PX} px of a whole pixel, where a "
+                "fifth would be by chance. The footage looks drawn by a program that "
+                "rounds each place to the pixel, so its steps from frame to frame are the "
+                "drawing's, up to half a pixel, not the fit's error: σ is the fit's own, "
+                "not raised to the track's scatter, and speeds carry those steps")
+    return notes
+
+
 def tracks_table(rows: list[list], specs: tuple[MarkerSpec, ...],
                  radii: dict[str, float | None] | None = None) -> pd.DataFrame:
     """The tracks table from finished rows.
@@ -1269,6 +1293,7 @@ def track(
                               **_ellipse_learned(st)}
                for st in state.markers}
     notes = [n for st in state.markers for n in st.notes] + stair_notes(tracks, specs)
+    notes += whole_pixel_notes(tracks, specs)
     notes += [note for st in state.markers if found[st.spec.name] == 0
               and (note := st.never_found_note())]
     notes += nearer_notes(state.markers)
