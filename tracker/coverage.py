@@ -38,7 +38,8 @@ def chroma(rgb: NDArray) -> NDArray[np.float32]:
 
 def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float, float],
                    radius: float, marker: NDArray | None = None, luminance: bool = False,
-                   unit_px: float = 1.0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+                   unit_px: float = 1.0, by_edge: bool = False
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Coverage α by unmixing chroma against a per-pixel background.
 
     Each pixel within ``radius + 2`` px of ``centre`` is unmixed as
@@ -46,7 +47,10 @@ def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float
     chroma and ``b`` the background's along the same ray from the centre,
     sampled just outside the disc (``radius`` + 3…5 px). Links and the wire
     leave a marker radially, so the sample sees what lies under the marker's
-    edge; uneven light is followed too. Pixels farther out are NaN.
+    edge; uneven light is followed too. Pixels farther out are NaN, and with
+    ``by_edge`` so are those whose ring lies off the patch, where the frame's edge cut
+    it (:func:`unmixed_share`): a disc's fit needs only some of its pixels, while a
+    centroid needs them all (there, the edge's pixels stand in for what lies past it).
 
     ``marker`` is the learned marker chroma; without it the median chroma of
     the pixels within 0.6·radius is used (only right when the marker is
@@ -70,8 +74,40 @@ def local_coverage(patch_rgb: NDArray, x0: float, y0: float, centre: tuple[float
     alpha, seen = _coverage_compiled(np.asarray(patch_rgb),
                                      LUMA_BASIS if luminance else _BASIS64,
                                      float(centre[0] - x0), float(centre[1] - y0),
-                                     float(radius), m, known, float(unit_px))
+                                     float(radius), m, known, float(unit_px), by_edge)
     return alpha, seen
+
+
+#: Where a pixel's background is sampled: this many px past the disc's rim, along the
+#: ray from its centre through the pixel (:func:`local_coverage`).
+RING_PX = (3.0, 4.0, 5.0)
+#: The directions :func:`unmixed_share` counts (720: half a degree apart).
+_RAYS = np.linspace(0.0, 2.0 * np.pi, 720, endpoint=False)
+_RAY_COS, _RAY_SIN = np.cos(_RAYS), np.sin(_RAYS)
+
+
+def unmixed_share(x: float, y: float, radius: float, size: tuple[int, int]) -> float:
+    """The share (0–1) of a disc of ``radius`` px about (``x``, ``y``) px whose pixels
+    :func:`local_coverage` unmixes in a frame of ``size`` (width, height) px: those
+    whose background ring samples (:data:`RING_PX`) lie on the frame. A pixel whose ring
+    lies past the frame's edge has no background to unmix against (edge pixels repeated
+    there are the marker's own where the edge cuts it) and is left NaN. By directions, a
+    disc's area being even in angle; exactly 1 where the ring lies clear of the edge.
+
+    >>> unmixed_share(100.0, 100.0, 10.0, (640, 480))
+    1.0
+    >>> round(unmixed_share(5.0, 100.0, 10.0, (640, 480)), 2)  # ring 15 px out, edge 5.5
+    0.6
+    """
+    w, h = size
+    reach = radius + RING_PX[-1]
+    if not (np.isfinite(x) and np.isfinite(y) and reach > 0):
+        return 0.0
+    if x - reach >= -0.5 and y - reach >= -0.5 and x + reach <= w - 0.5 \
+            and y + reach <= h - 0.5:
+        return 1.0
+    sx, sy = x + reach * _RAY_COS, y + reach * _RAY_SIN
+    return float(np.mean((sx >= -0.5) & (sx <= w - 0.5) & (sy >= -0.5) & (sy <= h - 0.5)))
 
 
 #: A pixel this much (px) nearer or farther than the middle's edge in its squared
@@ -94,7 +130,8 @@ def _bilinear(P: NDArray, x: float, y: float, out: NDArray) -> None:
 
 @njit(cache=True, nogil=True)
 def _coverage_compiled(rgb: NDArray, basis: NDArray, cx: float, cy: float, radius: float,
-                       marker: NDArray, known: bool, unit: float) -> tuple[NDArray, NDArray]:
+                       marker: NDArray, known: bool, unit: float, by_edge: bool
+                       ) -> tuple[NDArray, NDArray]:
     """:func:`local_coverage` on an RGB patch (h, w, 3), centre in patch px, each of which
     spans ``unit`` frame px."""
     h, w = rgb.shape[0], rgb.shape[1]
@@ -138,8 +175,17 @@ def _coverage_compiled(rgb: NDArray, basis: NDArray, cx: float, cy: float, radiu
                 continue
             ux, uy = dx / rho, dy / rho
             b[:] = 0.0
-            for k in (3.0, 4.0, 5.0):
-                _bilinear(P, cx + (radius + k / unit) * ux, cy + (radius + k / unit) * uy, b)
+            off = False
+            for k in RING_PX:
+                sx = cx + (radius + k / unit) * ux
+                sy = cy + (radius + k / unit) * uy
+                # A patch reaches past the ring unless the frame's edge cut it: a sample
+                # off it would repeat the edge's pixels, the marker's own where the edge
+                # cuts the marker (a ball half out of yupi's box unmixed against itself).
+                off = off or sx < -0.5 or sy < -0.5 or sx > w - 0.5 or sy > h - 0.5
+                _bilinear(P, sx, sy, b)
+            if off and by_edge:
+                continue
             b /= 3.0
             d0, d1 = m[0] - b[0], m[1] - b[1]
             denom = max(d0 * d0 + d1 * d1, 1e-6)

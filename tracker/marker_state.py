@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .centre import Centre
-from .coverage import CHROMA_BASIS, LUMA_BASIS
+from .coverage import CHROMA_BASIS, LUMA_BASIS, unmixed_share
 from .ellipse import (
     SHAPE_FRAMES,
     SHAPE_MIN_RADIUS_PX,
@@ -401,23 +401,35 @@ class MarkerState:
         usual = 1.0 if self.gain is None else min(max(self.gain, 1 / GAIN_DRIFT), GAIN_DRIFT)
         return nominal[0] * usual, nominal[1] * usual
 
+    def unmixed(self, centre: Centre, size: tuple[int, int]) -> float:
+        """The share (0–1) of the fitted marker whose coverage was unmixed in a frame of
+        ``size`` (width, height) px: of a disc, the pixels whose background ring lies on
+        the frame (:func:`.coverage.unmixed_share`); of a strip or streak, centred by
+        its coverage's centroid (``extent``), which keeps every pixel, the part of it
+        inside the frame (:func:`disc_in_frame`, at its fitted radius)."""
+        if self.extent is not None:
+            return disc_in_frame(centre.x, centre.y, centre.radius, size)
+        return unmixed_share(centre.x, centre.y, centre.radius, size)
+
     def whole(self, centre: Centre, nearer: bool = False,
               size: tuple[int, int] | None = None) -> bool:
         """Does the fit look like the whole marker: its usual visible area and residual?
         (A rim fit has weighed out what covers the marker already; while learning,
         there is no usual yet.) ``nearer``: the marker has come nearer, and its usual
-        area is taken at the fit's radius. ``size``: the frame's (width, height) px; a
-        disc the frame's edge cuts is judged by the area of it inside the frame
-        (:func:`disc_in_frame`: the frame hides the rest, and its fit uses none of the
-        pixels there), and not taken with less than :data:`LEAST_INSIDE` of it in."""
-        inside = 1.0 if size is None or not np.isfinite(centre.radius) else \
-            disc_in_frame(centre.x, centre.y, centre.radius, size)
-        if inside < LEAST_INSIDE:
+        area is taken at the fit's radius. ``size``: the frame's (width, height) px; by
+        the frame's edge a disc is judged by its area over the pixels whose coverage was
+        unmixed (:func:`.coverage.unmixed_share`: those whose background ring lies on
+        the frame; the fit uses no others) and not by its residual, and one the edge
+        cuts is not taken with less than :data:`LEAST_INSIDE` of it in the frame
+        (:func:`disc_in_frame`)."""
+        near_edge = size is not None and np.isfinite(centre.radius)
+        if near_edge and disc_in_frame(centre.x, centre.y, centre.radius, size) < LEAST_INSIDE:
             return False
         if centre.rim or self.learning:
             return True
+        unmixed = self.unmixed(centre, size) if near_edge else 1.0
         if self.area_alpha is not None and np.isfinite(centre.area):
-            usual = self.area_alpha * inside
+            usual = self.area_alpha * unmixed
             if nearer and self.radius and np.isfinite(centre.radius):
                 usual *= (centre.radius / self.radius) ** 2
             shown = centre.area / usual
@@ -439,11 +451,9 @@ class MarkerState:
                     return False
             elif shown > 1 + AREA_TOLERANCE:
                 return False
-        if self.residual is None or not np.isfinite(centre.rms_residual) or inside < 1.0:
-            # Cut by the frame's edge, the disc's residual is no guide: the background
-            # of the pixels by that edge is sampled past the rim, off the frame, so
-            # their coverage is not unmixed (a drawn disc of 10 px 1.9-7.4 px out left
-            # 9-27 times its usual residual, its fit 0.005-0.028 px off).
+        if self.residual is None or not np.isfinite(centre.rms_residual) or unmixed < 1.0:
+            # By the frame's edge, the fit's residual is over the pixels whose ring lies
+            # on the frame, fewer and another mix than the usual's.
             return True
         if centre.rms_residual <= RESIDUAL_LIMIT * max(self.residual, 0.01):
             return True

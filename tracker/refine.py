@@ -132,14 +132,16 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
         return _rim(image, guess, radius, marker, luminance)
     unit = _unit_px(image)
     patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
-    alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance, unit)
+    alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance, unit,
+                                 by_edge=True)
     c = None
     if init is None:
         c = weighted_centroid(alpha, x0, y0, guess, radius, noise_alpha=0.05)
         if not c.ok:
             return c, seen
         guess = (c.x, c.y)
-        alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance, unit)
+        alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance, unit,
+                                     by_edge=True)
     if rim is True:
         return _rim(image, guess, radius, marker, luminance)
     if edges is None:
@@ -169,7 +171,8 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
             break
         guess = (fit.x, fit.y)
         patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
-        alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance, unit)
+        alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance, unit,
+                                     by_edge=True)
         if band is not None:
             band = wire_band(alpha.shape, x0, y0, wire_line, init[3], radius)
             whole, alpha = alpha, np.where(band, np.nan, alpha)
@@ -446,7 +449,8 @@ def _soft_refit(image: Frame | BinnedFrame | NDArray[np.uint8], fit: Centre, alp
             < SOFT_MAX * radius):
         return fit, alpha, patch, x0, y0, radius
     patch_w, xw, yw = patch_around(image, fit.x, fit.y, wide + 9)
-    alpha_w, _ = local_coverage(patch_w, xw, yw, (fit.x, fit.y), wide, marker, luminance, unit)
+    alpha_w, _ = local_coverage(patch_w, xw, yw, (fit.x, fit.y), wide, marker, luminance, unit,
+                                 by_edge=True)
     again = fit_disc(alpha_w, xw, yw, (fit.x, fit.y), wide, init=fit.params, tol_px=tol,
                      stretch=stretch)
     if not again.ok:
