@@ -1153,9 +1153,10 @@ def whole_pixel_notes(tracks: pd.DataFrame, specs: tuple[MarkerSpec, ...]) -> li
         xy = found_xy(tracks, s.name)
         if drawn_at_whole_pixels(xy):
             notes.append(
-                f"{s.name} lies on whole pixels: {100 * whole_pixel_share(xy):.0f} % of its "
-                f"places while it moves are within {WHOLE_PX} px of a whole pixel, where a "
-                "fifth would be by chance. The footage looks drawn by a program that "
+                f"{s.name} lies on whole pixels: on each axis, "
+                f"{100 * whole_pixel_share(xy):.0f} % or more of its places while it moves are "
+                f"within {WHOLE_PX} px of a whole pixel, where a fifth would be by chance. The "
+                "footage looks drawn by a program that "
                 "rounds each place to the pixel, so its steps from frame to frame are the "
                 "drawing's, up to half a pixel, not the fit's error: σ is the fit's own, "
                 "not raised to the track's scatter, and speeds carry those steps")
