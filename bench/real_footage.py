@@ -23,11 +23,13 @@ must agree, which gives each track's own scatter and our σ's coverage. Without 
 it says so and exits 0.
 
 ``--pendulum`` adds a student's pendulum clip (the swing and the string's length), and
-``--rover`` yupi's rover-wheel clip (a green LED on an arm turning about a red pivot:
-rest, then a circle, a greenness centroid made here, and with ``--yupi-python`` yupi's
-own colour tracker as the peer; :func:`run_rover`):
+``--yupi`` (or ``--rover``) two of yupi's clips: the rover wheel (a green LED on an arm
+turning about a red pivot: rest, then a circle, a greenness centroid made here;
+:func:`run_rover`) and a render of balls in a box (the blue ball against where it was
+drawn, at whole pixels; :func:`run_balls`), each with ``--yupi-python`` yupi's own colour
+tracker as the peer:
 
-    .venv/bin/python bench/real_footage.py --rover /path/to/yupidevs/yupi_examples \
+    .venv/bin/python bench/real_footage.py --yupi /path/to/yupidevs/yupi_examples \
         --yupi-python /path/to/a/venv/with/yupi/bin/python
 """
 
@@ -159,6 +161,14 @@ def _extract(repo: Path, name: str, folder: str = "examples") -> Path | None:
         return None
     out.write_bytes(blob)
     return out
+
+
+def _extracted_or_said(repo: Path, name: str, folder: str) -> Path | None:
+    """:func:`_extract`, saying so where the file is not in ``repo``."""
+    video = _extract(repo, name, folder=folder)
+    if video is None:
+        print(f"\n{name}: not in {repo}; skipped")
+    return video
 
 
 def _props(obj: ET.Element) -> dict[str, ET.Element]:
@@ -406,11 +416,12 @@ def add_clip_paths(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--pendulum", type=Path,
                     help="a checkout of juangomez177/Pendulum_Oscillatory_Motion, or its "
                          "git directory")
-    ap.add_argument("--rover", type=Path,
-                    help="a checkout of yupidevs/yupi_examples, or its git directory")
+    ap.add_argument("--yupi", "--rover", dest="rover", type=Path,
+                    help="a checkout of yupidevs/yupi_examples, or its git directory: its "
+                         "rover wheel and its balls in a box")
     ap.add_argument("--yupi-python", type=Path,
-                    help="a Python with yupi installed, to make yupi's own track of the "
-                         "rover's LED (bench/yupi_peer.py)")
+                    help="a Python with yupi installed, to make yupi's own tracks of the "
+                         "rover's LED and the blue ball (bench/yupi_peer.py)")
 
 
 def run_clip(repo: Path, clip: Clip, card: Scorecard) -> dict[str, float]:
@@ -642,17 +653,28 @@ def colour_centroids(video: Path, frames: NDArray, near: NDArray, channel: int,
     return np.array(out)
 
 
+def _tracked(repo: Path, name: str, folder: str, marker: str
+             ) -> tuple[Path, TrackResult, str, float, float, NDArray] | None:
+    """The clip ``folder/name`` of ``repo`` tracked with one ``--marker`` (None, said,
+    where it is not there): the video, :func:`timed_track`'s figures, and in which
+    frames the marker was found."""
+    video = _extracted_or_said(repo, name, folder)
+    if video is None:
+        return None
+    result, label, track_s, decode_s = timed_track(video, None, marker)
+    return (video, result, label, track_s, decode_s,
+            result.tracks[f"{label}_ok"].to_numpy(bool))
+
+
 def run_pendulum(repo: Path, card: Scorecard) -> None:
     """Track the bauble, fit the swing of :mod:`pendulum`, print its figures (and score
     them on ``card``)."""
     name, marker, length_m = PENDULUM
-    video = _extract(repo, name, folder="")
-    if video is None:
-        print(f"\n{name}: not in {repo}; skipped")
+    found = _tracked(repo, name, "", marker)
+    if found is None:
         return
-    result, bob, track_s, decode_s = timed_track(video, None, marker)
+    video, result, bob, track_s, decode_s, ok = found
     tab = result.tracks
-    ok = tab[f"{bob}_ok"].to_numpy(bool)
     print(f"\n{name} (a pendulum, {len(tab)} frames, {tab['t_s'].iloc[-1]:.1f} s): "
           f"`--marker {marker}`")
     print(f"  found in {ok.sum()} of {len(tab)} frames ({100 * ok.mean():.0f} %; the bob is in "
@@ -774,14 +796,15 @@ def circle_fit(xy: NDArray) -> tuple[NDArray, float, NDArray]:
     return centre, radius, np.hypot(d[:, 0], d[:, 1]) - radius
 
 
-def yupi_track(video: Path, python: Path, start: tuple[float, float]) -> pd.DataFrame | None:
-    """The peer's track of the LED (``bench/yupi_peer.py`` under ``python``), or None,
-    said, where it could not be made."""
+def yupi_track(video: Path, python: Path, start: tuple[float, float],
+               options: tuple[str, ...] = ()) -> pd.DataFrame | None:
+    """The peer's track (``bench/yupi_peer.py`` under ``python``, with ``options``: the
+    LED's colours without), or None, said, where it could not be made."""
     script = Path(__file__).resolve().parent / "yupi_peer.py"
     try:
         out = subprocess.run([str(python), str(script), str(video), str(round(start[0])),
-                              str(round(start[1]))], capture_output=True, text=True,
-                             check=True).stdout
+                              str(round(start[1])), *options], capture_output=True,
+                             text=True, check=True).stdout
     except (OSError, subprocess.CalledProcessError) as e:
         print(f"  yupi's track could not be made with {python} ({e}); skipped")
         return None
@@ -876,9 +899,8 @@ def run_rover(repo: Path, yupi_python: Path | None, card: Scorecard) -> None:
     """Track the LED and the pivot, check rest and the circle, compare with yupi (and score
     the figures on ``card``)."""
     name, led_marker, pivot_marker = ROVER
-    video = _extract(repo, name, folder="resources/videos")
+    video = _extracted_or_said(repo, name, "resources/videos")
     if video is None:
-        print(f"\n{name}: not in {repo}; skipped")
         return
     result, track_s, decode_s = timed(parse_markers([led_marker, pivot_marker]), video, None)
     tab = result.tracks
@@ -975,6 +997,130 @@ def run_rover(repo: Path, yupi_python: Path | None, card: Scorecard) -> None:
              unsure == 0)
 
 
+#: yupi's introductory clip (yupidevs/yupi_examples, ``resources/videos/demo.avi``): ten
+#: grey balls and a blue one, 20 px in radius, dropped into a box and bouncing off its
+#: walls and off one another (400×400 MPEG-4 Part 2, 15 fps, 1000 frames). A render by
+#: yupi's authors, sharing nothing with ours, that draws the ball at a whole-pixel
+#: centre in every frame (:func:`drawn_blue`'s centroids show it): where the ball was
+#: drawn is known to the pixel, and a fix's distance to the nearest whole pixel is its
+#: error. The peer is yupi's colour tracker with its introduction's bounds.
+BALLS = ("demo.avi", "ball=blue@359,260")
+YUPI_BALL = ("--low", "180,125,35", "--high", "190,135,45", "--roi", "100")
+#: A pixel is the blue ball's where its blue exceeds its red and green by this (DN): the
+#: ball reads 55 inside, the grey balls, the white box and MPEG-4's ringing round the
+#: ball at most 17.
+BLUE_DN = 20
+#: The ball is in view in a frame with this many such pixels: a 20 px disc has 1257,
+#: and every frame of the clip has 952–1262.
+BLUE_SEEN_PX = 500
+
+
+def drawn_blue(video: Path) -> tuple[NDArray, NDArray, NDArray]:
+    """Per frame, the pixels of the blue ball (blue over red and green by
+    :data:`BLUE_DN` or more); whether any of them lies on the frame's edge (the edge
+    cuts the ball); and the centroid (n, 2) px of how much bluer than that floor less
+    10 DN each pixel within 26 px of those pixels' middle is: where the ball is, by a
+    method that shares nothing with the tracker's fits (and that a cut pulls inwards)."""
+    count, cut, centre = [], [], []
+    for frame in open_frames(video, None).frames():
+        rgb = frame.rgb.astype(np.int16)
+        blue = rgb[..., 2] - np.maximum(rgb[..., 0], rgb[..., 1])
+        ii, jj = np.nonzero(blue >= BLUE_DN)
+        count.append(len(ii))
+        h, w = blue.shape
+        cut.append(bool(len(ii)) and (ii.min() == 0 or jj.min() == 0 or ii.max() == h - 1
+                                      or jj.max() == w - 1))
+        if len(ii) == 0:
+            centre.append((np.nan, np.nan))
+            continue
+        y, x = np.median(ii), np.median(jj)
+        i0, j0 = max(int(y) - 26, 0), max(int(x) - 26, 0)
+        w = np.clip(blue[i0:int(y) + 27, j0:int(x) + 27] - (BLUE_DN - 10), 0, None)
+        gi, gj = np.mgrid[0:w.shape[0], 0:w.shape[1]]
+        centre.append(((w * (gj + j0)).sum() / w.sum(), (w * (gi + i0)).sum() / w.sum()))
+    return np.array(count), np.array(cut), np.array(centre, float)
+
+
+def near_whole(v: NDArray) -> float:
+    """The fraction of coordinates ``v`` within 0.1 px of a whole pixel (0.2 for
+    coordinates spread evenly)."""
+    return float(np.mean(np.abs(v - np.round(v)) <= 0.1))
+
+
+def run_balls(repo: Path, yupi_python: Path | None, card: Scorecard) -> None:
+    """Track yupi's blue ball, check its fixes against where it was drawn and against
+    yupi's own track (and score the figures on ``card``)."""
+    name, marker = BALLS
+    found = _tracked(repo, name, "resources/videos", marker)
+    if found is None:
+        return
+    video, result, ball, track_s, decode_s, ok = found
+    tab = result.tracks
+    count, cut, other = drawn_blue(video)
+    seen = count >= BLUE_SEEN_PX
+    print(f"\n{name} (yupi's balls in a box, a render, {len(tab)} frames, "
+          f"{tab['t_s'].iloc[-1]:.1f} s): `--marker {marker}`")
+    print(f"  the ball is in view in {seen.sum()} frames ({count.min()}–{count.max()} px "
+          f"{BLUE_DN} DN bluer than red and green; a 20 px disc covers 1257)")
+    print(f"  found in {ok[seen].sum()} of them ({100 * ok[seen].mean():.1f} %; aim ≥ 95 %); "
+          "the rest: " + ", ".join(f"{k} {v}" for k, v in
+                                  tab.loc[seen & ~ok, f"{ball}_status"].value_counts().items()))
+    card.add(name, "found while in view", f"{100 * ok[seen].mean():.1f} %", "≥ 95 %",
+             ok[seen].mean() >= 0.95)
+    xy = tab[[f"{ball}_x_px", f"{ball}_y_px"]].to_numpy(float)[ok]
+    sigma = tab[f"{ball}_sigma_px"].to_numpy(float)[ok]
+    whole = ok & seen & ~cut & np.isfinite(other).all(axis=1)
+    gap = tab[[f"{ball}_x_px", f"{ball}_y_px"]].to_numpy(float)[whole] - other[whole]
+    print(f"  drawn at whole pixels: {100 * near_whole(other[seen & ~cut]):.0f} % of the "
+          f"blueness centroid's coordinates (made here, apart from the tracker) and "
+          f"{100 * near_whole(xy[~cut[ok]]):.0f} % of ours lie within 0.1 px of one (20 % "
+          f"if spread evenly), in the frames where the ball is clear of the frame's edge; "
+          f"there ours and the centroid "
+          f"differ by {np.sqrt(np.mean(gap**2, axis=0))[0]:.2f}, "
+          f"{np.sqrt(np.mean(gap**2, axis=0))[1]:.2f} px RMS (x, y)")
+    error = xy - np.round(xy)
+    rms = float(np.sqrt(np.mean(np.sum(error**2, axis=1))))
+    covered = float(np.mean(np.abs(error) <= sigma[:, None]))
+    edge = cut[ok]
+    print(f"  against where it was drawn (the nearest whole pixel): RMS {rms:.3f} px, the "
+          f"largest {np.abs(error).max():.2f} px; σ median {np.median(sigma):.3f} px, ±1σ "
+          f"coverage {100 * covered:.0f} % (aim 50–90 %)")
+    print(f"  the ball touches the frame's edge or is cut by it in {cut.sum()} frames (as few "
+          f"as {count.min()} of its pixels left); found in {ok[cut].sum()} of them, RMS "
+          f"{np.sqrt(np.mean(np.sum(error[edge]**2, axis=1))):.3f} px from where it was "
+          f"drawn (±1σ coverage {100 * np.mean(np.abs(error[edge]) <= sigma[edge, None]):.0f} "
+          f"%), where the blueness centroid of what is left lies "
+          f"{np.sqrt(np.mean(np.sum((other[ok & cut] - np.round(xy[edge]))**2, axis=1))):.2f}"
+          " px RMS from it")
+    card.add(name, "RMS against where it was drawn", f"{rms:.2f} px", "≤ 1 px", rms <= 1.0)
+    card.add(name, "±1σ coverage against where it was drawn", f"{100 * covered:.0f} %",
+             "50–90 %", 0.5 <= covered <= 0.9)
+    if yupi_python is not None:
+        peer = yupi_track(video, yupi_python, tuple(xy[0]), YUPI_BALL)
+        if peer is not None:
+            theirs = peer[peer["found"] == 1].set_index("frame")[["x_px", "y_px"]]
+            common = [k for k in theirs.index if ok[k]]
+            diff = (tab.loc[common, [f"{ball}_x_px", f"{ball}_y_px"]].to_numpy(float)
+                    - theirs.loc[common].to_numpy(float))
+            offset = diff.mean(axis=0)
+            rms_peer = float(np.sqrt(np.mean(np.sum((diff - offset) ** 2, axis=1))))
+            theirs_error = theirs.to_numpy(float) - np.round(other[theirs.index])
+            card.add(name, "RMS against yupi's", f"{rms_peer:.2f} px", "≤ 1 px",
+                     rms_peer <= 1.0)
+            print(f"  yupi's colour tracker (whole-pixel centroids of the pixels inside its "
+                  f"bounds) found it in {len(theirs)} frames; against it, on the "
+                  f"{len(common)} both found: offset ({offset[0]:+.2f}, {offset[1]:+.2f}) px, "
+                  f"RMS after removing it {rms_peer:.2f} px (aim ≤ 1 px); yupi's own RMS "
+                  f"against where the ball was drawn "
+                  f"{np.sqrt(np.mean(np.sum(theirs_error**2, axis=1))):.2f} px")
+    else:
+        print("  no --yupi-python given: yupi's own track not made")
+    print(f"  time (median of {TIMINGS} runs each): tracking {track_s:.2f} s, PyAV decoding "
+          f"to RGB alone {decode_s:.2f} s "
+          f"(ratio decode/track {decode_s / track_s:.2f}; aim ≥ 0.9 on clips over 10 s)")
+    score_common(card, name, result, ball, track_s, decode_s)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     add_clip_paths(ap)
@@ -985,7 +1131,7 @@ def main() -> None:
     if not given:
         print("usage: bench/real_footage.py [PATH-TO-OpenSourcePhysics/tracker] "
               "[--pendulum PATH-TO-juangomez177/Pendulum_Oscillatory_Motion] "
-              "[--rover PATH-TO-yupidevs/yupi_examples [--yupi-python PYTHON]] (checkouts or "
+              "[--yupi PATH-TO-yupidevs/yupi_examples [--yupi-python PYTHON]] (checkouts or "
               "their git directories); no path given, nothing measured")
         return
     # The kernels compiled (or read from numba's cache) before any clip is timed.
@@ -1004,6 +1150,7 @@ def main() -> None:
         run_pendulum(args.pendulum, card)
     if args.rover is not None and args.rover.exists():
         run_rover(args.rover, args.yupi_python, card)
+        run_balls(args.rover, args.yupi_python, card)
     card.show()
 
 
