@@ -368,6 +368,7 @@ def _span(start: tuple[float, str] | None, end: tuple[float, str] | None):
 
 
 def cmd_inspect(args: argparse.Namespace) -> int:
+    from .files import ensure_dir
     from .report.survey import write_survey_png
     from .tracker.lighting import settling_note
     from .tracker.marker_state import rig_focus_note
@@ -398,6 +399,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
         print(note)
     out = Path(args.out) if args.out else clip.with_name(
         (f"{clip.name}_{video.stem}" if sequence else video.stem) + "_inspect.png")
+    ensure_dir(out.parent)
     write_survey_png(out, frame.rgb, table)
     if table.empty:
         print(f"no compact blob of one colour, white or black in frame {frame.index} "
@@ -417,6 +419,10 @@ def cmd_inspect(args: argparse.Namespace) -> int:
                          .head(3))
         # A folder of pictures has no clock: the command needs the rate given here.
         fps = f" --fps {args.fps:g}" if args.fps else " --fps FPS" if sequence else ""
+        # The places are this frame's, and @X,Y is where a marker is where tracking
+        # starts: a falling ball placed where it is a second in is never there at first.
+        if frame.index > 0:
+            fps += f" --start {frame.index}f"
         # Quoted, so that a path with spaces (Tracker's examples have them) pastes.
         rig = crank_slider(table)
         if rig is not None:

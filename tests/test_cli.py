@@ -122,18 +122,26 @@ def test_empty_file(tmp_path):
     _one_sentence_error(_run("track", str(empty), "--out", str(tmp_path / "r")), "empty")
 
 
+def _green_disc_pictures(folder, stem: str, places: list[tuple[int, int]],
+                         size: tuple[int, int]):
+    """A folder of numbered PNGs (``stem`` 00, 01, …), each a green disc of 8 px at its
+    place (whole px) on a dark ground of ``size`` (height, width)."""
+    import cv2
+
+    folder.mkdir()
+    for k, place in enumerate(places):
+        image = np.full((*size, 3), 30, np.uint8)
+        cv2.circle(image, place, 8, (40, 200, 60), -1)  # BGR: green
+        cv2.imwrite(str(folder / f"{stem}{k:02d}.png"), image)
+    return folder
+
+
 def test_one_picture_of_a_sequence_is_inspected_and_its_folder_tracked(tmp_path, capsys,
                                                                        monkeypatch):
     # A user who opens Tracker's "…00.jpg" is shown that frame, and told the command
     # that tracks the folder; the PNG is written beside the folder, not among its frames.
-    import cv2
-
-    frames = tmp_path / "car"
-    frames.mkdir()
-    for k in range(3):
-        image = np.full((90, 120, 3), 30, np.uint8)
-        cv2.circle(image, (40 + 5 * k, 45), 8, (40, 200, 60), -1)  # BGR: green
-        cv2.imwrite(str(frames / f"car{k:02d}.png"), image)
+    frames = _green_disc_pictures(tmp_path / "car", "car", [(40 + 5 * k, 45) for k in range(3)],
+                                  (90, 120))
     one = frames / "car00.png"
     _one_sentence_error(_run("track", str(one), "--out", str(tmp_path / "r")),
                         "car00.png", "one of 3 numbered pictures", "--fps")
@@ -146,6 +154,29 @@ def test_one_picture_of_a_sequence_is_inspected_and_its_folder_tracked(tmp_path,
     monkeypatch.chdir(tmp_path)
     assert main(command.replace("FPS", "25").split()[1:]) == 0
     assert len(pd.read_csv(tmp_path / "run" / "tracks.csv")) == 3
+
+
+def test_inspect_at_a_later_time_suggests_tracking_from_that_frame(tmp_path, capsys,
+                                                                    monkeypatch):
+    # The places inspect lists are those of the frame it shows, and @X,Y is where a
+    # marker is when tracking starts: a ball falling 12 px a frame, placed where it is a
+    # second in, was never there in the frames before. The command starts where the
+    # places hold, and the picture goes where --out says, its folder made.
+    frames = _green_disc_pictures(tmp_path / "drop", "d", [(60, 20 + 12 * k) for k in range(20)],
+                                  (300, 120))
+    picture = tmp_path / "new" / "folder" / "at1s.png"
+    assert main(["inspect", str(frames), "--fps", "10", "--at", "1", "--out",
+                 str(picture)]) == 0
+    out = capsys.readouterr().out
+    assert picture.exists()
+    command = next(line for line in out.splitlines() if "cranktrack track" in line)
+    assert " --start 10f " in command and "@60,140" in command, command
+    monkeypatch.chdir(tmp_path)
+    assert main(command.split()[1:]) == 0
+    tracks = pd.read_csv(tmp_path / "run" / "tracks.csv")
+    assert tracks["frame"].tolist() == list(range(10, 20))
+    ok = [c for c in tracks.columns if c.endswith("_ok")]
+    assert len(ok) >= 1 and tracks[ok[0]].all(), tracks
 
 
 def test_inspect_says_what_the_file_says_of_its_pictures(tmp_path, capsys):
