@@ -419,7 +419,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
                          .head(3))
         # A folder of pictures has no clock: the command needs the rate given here.
         fps = f" --fps {args.fps:g}" if args.fps else " --fps FPS" if sequence else ""
-        # The places are this frame's, and @X,Y is where a marker is where tracking
+        # The places are this frame's, and @X,Y is where a marker is when tracking
         # starts: a falling ball placed where it is a second in is never there at first.
         if frame.index > 0:
             fps += f" --start {frame.index}f"

@@ -116,7 +116,7 @@ def repeated_frames(xy: NDArray[np.floating]) -> NDArray[np.bool_]:
 WHOLE_PX = 0.1
 #: A track is drawn at whole pixels when on each axis at least this share of its moving
 #: fixes' coordinates lie on one (:func:`whole_pixel_share`). On yupi's render of balls
-#: in a box 0.93 and 0.85 do; on the real clips of the benches and the project's own
+#: in a box 0.93 and 0.88 do; on the real clips of the benches and the project's own
 #: renders 0.09–0.29 of both axes' together (over 18 or more moving fixes). Both axes:
 #: a render's disc sliding 4 px a frame along x and 1.3 along y lies on whole pixels in
 #: x alone, and its motion is smooth (bench/large_markers.py).
@@ -176,7 +176,7 @@ def with_scatter_floor(sigma: NDArray[np.floating], xy: NDArray[np.floating]
     their own σ; the floor never lowers one. A track drawn at whole pixels
     (:func:`drawn_at_whole_pixels`) keeps its own σ throughout: it really moves in
     steps rounded to the pixel, which differences would read as the fit's noise
-    (yupi's balls in a box: a floor of 0.44 px where the fixes lie 0.10 px RMS
+    (yupi's balls in a box: a floor of 0.42 px where the fixes lie 0.09 px RMS
     from the whole pixels the ball was drawn at).
 
     >>> import numpy as np
