@@ -8,6 +8,7 @@ instead. One video failing is a row in the summary, not the end of the batch.
 from __future__ import annotations
 
 import glob
+import multiprocessing
 import os
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -177,7 +178,12 @@ def _run_tasks(tasks: list[tuple], rows: list[dict], jobs: int | None,
                 client.close()
     else:
         workers = jobs or os.cpu_count() or 1
-        with ProcessPoolExecutor(max_workers=min(workers, len(tasks))) as pool:
+        # Started afresh, not forked: a fork copies a process that holds OpenCV's,
+        # numba's and the decoder's threads, and a lock one of them held at that moment
+        # is never let go in the copy (a test's batch of two, forked from a pytest
+        # worker that had tracked before, hung asleep once in CI).
+        with ProcessPoolExecutor(max_workers=min(workers, len(tasks)),
+                                 mp_context=multiprocessing.get_context("spawn")) as pool:
             futures = [pool.submit(process_one, *a) for a in tasks]
             try:
                 for fut in as_completed(futures):

@@ -39,6 +39,28 @@ def test_local_batch_reports_the_failure_and_does_the_rest(recordings, tmp_path)
     _check(summary, tmp_path)
 
 
+def test_a_local_batch_starts_its_workers_afresh_not_forked(recordings, tmp_path,
+                                                            monkeypatch):
+    import concurrent.futures
+
+    import cranktrack.batch as batch
+
+    # A forked worker copies a process that holds OpenCV's, numba's and the decoder's
+    # threads; a lock held by one of them at the fork is never let go in the copy.
+    # A batch forked from a pytest worker that had tracked before hung so in CI.
+    made = []
+
+    def pool(*args, **kwargs):
+        made.append(kwargs.get("mp_context"))
+        return concurrent.futures.ProcessPoolExecutor(*args, **kwargs)
+
+    monkeypatch.setattr(batch, "ProcessPoolExecutor", pool)
+    summary = run_batch(str(recordings / "take1.mp4"), tmp_path, ("A", "C", 160.8), jobs=2)
+    assert list(summary["status"]) == ["ok"]
+    assert len(made) == 1 and made[0] is not None
+    assert made[0].get_start_method() == "spawn"
+
+
 def test_batch_on_a_local_dask_cluster(recordings, tmp_path):
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
