@@ -12,6 +12,7 @@ import multiprocessing
 import os
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 import pandas as pd
@@ -102,6 +103,12 @@ def run_batch(
     only the rest, each continuing from where it was interrupted. ``readout_s`` (s) is
     the rolling-shutter readout of the one camera that filmed them all (`track`'s
     ``--rolling-shutter-ms``); a video whose frame it does not fit in fails alone.
+
+    The local processes start afresh and import the calling script again, so from a
+    script call it under ``if __name__ == "__main__":``. A worker that stops abruptly
+    (killed, out of memory, or an unguarded script) ends the batch with one
+    :class:`CranktrackError`, after the summary of the videos that finished is
+    written (the others are rows with status ``not run``).
     """
     videos = find_videos(pattern)
     out = ensure_dir(out_dir)
@@ -116,12 +123,24 @@ def run_batch(
     try:
         _run_tasks(tasks, rows, jobs, scheduler, on_done)
     except KeyboardInterrupt as e:
-        finished = {r["video"] for r in rows}
-        rows += [{"video": t[0], "run": t[1], "status": "interrupted",
-                  "message": "stopped by Ctrl-C"} for t in tasks if t[0] not in finished]
-        _write_summary(out, rows)
+        _write_summary(out, _with_unfinished(rows, tasks, "interrupted", "stopped by Ctrl-C"))
         raise RunInterrupted(str(out), True) from e
+    except BrokenProcessPool:
+        why = ("a worker process of the batch stopped abruptly: it was killed or ran out of "
+               "memory, or run_batch was called from a script outside "
+               "`if __name__ == \"__main__\":` (its workers import the script again)")
+        _write_summary(out, _with_unfinished(rows, tasks, "not run", why))
+        raise CranktrackError(f"{why}; the videos that finished are in "
+                              f"{out / SUMMARY}") from None
     return _write_summary(out, rows)
+
+
+def _with_unfinished(rows: list[dict], tasks: list[tuple], status: str, message: str
+                     ) -> list[dict]:
+    """``rows`` and a row of ``status`` for each task that has none."""
+    finished = {r["video"] for r in rows}
+    return rows + [{"video": t[0], "run": t[1], "status": status, "message": message}
+                   for t in tasks if t[0] not in finished]
 
 
 #: The batch's table, one row per video.

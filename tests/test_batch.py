@@ -61,6 +61,28 @@ def test_a_local_batch_starts_its_workers_afresh_not_forked(recordings, tmp_path
     assert made[0].get_start_method() == "spawn"
 
 
+def test_a_worker_that_dies_ends_the_batch_in_one_sentence_and_keeps_what_finished(
+        recordings, tmp_path, monkeypatch):
+    from concurrent.futures.process import BrokenProcessPool
+
+    import cranktrack.batch as batch
+    from cranktrack.errors import CranktrackError
+
+    # A worker killed (out of memory), or a script that calls run_batch outside
+    # `if __name__ == "__main__":` (started afresh, its workers import it again and
+    # die): the pool breaks. One video finished first; it stays in the summary.
+    def one_then_broken(tasks, rows, jobs, scheduler, on_done):
+        rows.append({"video": tasks[0][0], "run": tasks[0][1], "status": "ok"})
+        raise BrokenProcessPool("a child process terminated abruptly")
+
+    monkeypatch.setattr(batch, "_run_tasks", one_then_broken)
+    with pytest.raises(CranktrackError, match=r"stopped abruptly.*__main__.*summary\.csv"):
+        run_batch(str(recordings / "*.mp4"), tmp_path, ("A", "C", 160.8), jobs=2)
+    summary = pd.read_csv(tmp_path / "summary.csv")
+    assert len(summary) == 4
+    assert sorted(summary["status"]) == ["not run", "not run", "not run", "ok"]
+
+
 def test_batch_on_a_local_dask_cluster(recordings, tmp_path):
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
