@@ -1062,9 +1062,10 @@ def run_balls(repo: Path, yupi_python: Path | None, card: Scorecard) -> None:
           f"{tab['t_s'].iloc[-1]:.1f} s): `--marker {marker}`")
     print(f"  the ball is in view in {seen.sum()} frames ({count.min()}–{count.max()} px "
           f"{BLUE_DN} DN bluer than red and green; a 20 px disc covers 1257)")
-    print(f"  found in {ok[seen].sum()} of them ({100 * ok[seen].mean():.1f} %; aim ≥ 95 %); "
-          "the rest: " + ", ".join(f"{k} {v}" for k, v in
-                                  tab.loc[seen & ~ok, f"{ball}_status"].value_counts().items()))
+    rest = tab.loc[seen & ~ok, f"{ball}_status"].value_counts()
+    print(f"  found in {ok[seen].sum()} of them ({100 * ok[seen].mean():.1f} %; aim ≥ 95 %)"
+          + ("; the rest: " + ", ".join(f"{k} {v}" for k, v in rest.items()) if len(rest)
+             else ""))
     card.add(name, "found while in view", f"{100 * ok[seen].mean():.1f} %", "≥ 95 %",
              ok[seen].mean() >= 0.95)
     xy = tab[[f"{ball}_x_px", f"{ball}_y_px"]].to_numpy(float)[ok]
