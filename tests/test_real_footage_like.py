@@ -341,8 +341,8 @@ def test_a_ball_drawn_at_whole_pixels_keeps_its_fits_own_sigma(tmp_path):
 
     # A program that draws at whole pixels (yupi's balls in a box) moves its ball in
     # steps rounded to the pixel. Against any smooth motion those steps scatter by
-    # 0.29 px, which the σ floor read as the fit's noise: 0.44 px there, where the fixes
-    # lay 0.10 px from the whole pixels the ball was drawn at. Where it was drawn is the
+    # 0.29 px, which the σ floor read as the fit's noise: 0.42-0.44 px there, where the
+    # fixes lay 0.09-0.10 px from the whole pixels the ball was drawn at. Where it was drawn is the
     # truth here, and the run says why the track is jagged.
     i = np.arange(80.0)
     drawn = np.round(np.c_[30.0 + 2.3 * i, 20.0 + 0.9 * i + 0.012 * i**2])
