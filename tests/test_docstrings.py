@@ -12,6 +12,7 @@ MODULES = [
     "cranktrack.models.crank_slider",
     "cranktrack.kinematics.differentiate",
     "cranktrack.tracker.track",
+    "cranktrack.tracker.coverage",
     "cranktrack.tracker.scatter",
     "cranktrack.tracker.lighting",
     "cranktrack.tracker.video",

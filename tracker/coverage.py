@@ -96,8 +96,11 @@ def unmixed_share(x: float, y: float, radius: float, size: tuple[int, int]) -> f
 
     >>> unmixed_share(100.0, 100.0, 10.0, (640, 480))
     1.0
-    >>> round(unmixed_share(5.0, 100.0, 10.0, (640, 480)), 2)  # ring 15 px out, edge 5.5
-    0.6
+    >>> import math
+    >>> share = unmixed_share(5.0, 100.0, 10.0, (640, 480))  # ring 15 px out, edge 5.5 px
+    >>> exact = math.acos(-5.5 / 15.0) / math.pi  # the arc of the ring left of x = -0.5
+    >>> round(share, 3), round(exact, 3)
+    (0.621, 0.62)
     """
     w, h = size
     reach = radius + RING_PX[-1]
