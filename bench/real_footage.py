@@ -1018,10 +1018,10 @@ BLUE_SEEN_PX = 500
 def drawn_blue(video: Path) -> tuple[NDArray, NDArray, NDArray]:
     """Per frame, the pixels of the blue ball (blue over red and green by
     :data:`BLUE_DN` or more); whether any of them lies on the frame's edge (the edge
-    cuts the ball); and the centroid (n, 2) px of how much bluer than that floor less
-    10 DN each pixel within 26 px of those pixels' middle is: where the ball is, by a
-    method that shares nothing with the tracker's fits (and that a cut pulls inwards)."""
-    count, cut, centre = [], [], []
+    cuts the ball); and the centroid (n, 2) px of its blueness over 10 DN within 26 px
+    of those pixels' middle (:func:`colour_centroids`): where the ball is, by a method
+    that shares nothing with the tracker's fits (and that a cut pulls inwards)."""
+    count, cut, middle = [], [], []
     for frame in open_frames(video, None).frames():
         rgb = frame.rgb.astype(np.int16)
         blue = rgb[..., 2] - np.maximum(rgb[..., 0], rgb[..., 1])
@@ -1030,15 +1030,12 @@ def drawn_blue(video: Path) -> tuple[NDArray, NDArray, NDArray]:
         h, w = blue.shape
         cut.append(bool(len(ii)) and (ii.min() == 0 or jj.min() == 0 or ii.max() == h - 1
                                       or jj.max() == w - 1))
-        if len(ii) == 0:
-            centre.append((np.nan, np.nan))
-            continue
-        y, x = np.median(ii), np.median(jj)
-        i0, j0 = max(int(y) - 26, 0), max(int(x) - 26, 0)
-        w = np.clip(blue[i0:int(y) + 27, j0:int(x) + 27] - (BLUE_DN - 10), 0, None)
-        gi, gj = np.mgrid[0:w.shape[0], 0:w.shape[1]]
-        centre.append(((w * (gj + j0)).sum() / w.sum(), (w * (gi + i0)).sum() / w.sum()))
-    return np.array(count), np.array(cut), np.array(centre, float)
+        middle.append((np.median(jj), np.median(ii)) if len(ii) else (np.nan, np.nan))
+    middle = np.array(middle, float)
+    centre = np.full_like(middle, np.nan)
+    seen = np.flatnonzero(np.isfinite(middle).all(axis=1))
+    centre[seen] = colour_centroids(video, seen, middle[seen], 2, 10.0, 26)
+    return np.array(count), np.array(cut), centre
 
 
 def near_whole(v: NDArray) -> float:
