@@ -398,8 +398,11 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
                    "codec": source.codec, "width": source.width, "height": source.height,
                    **({} if source.pixel_aspect == 1.0 else
                       {"pixel_aspect": source.pixel_aspect})},
-        "markers": {s.name: {"hue_deg": s.hue_deg, "hue_tol_deg": s.hue_tol_deg,
-                             "shape": "disc" if s.flat else "blob"}
+        "markers": {s.name: ({"template": {"at_px": list(s.near_px),
+                                           "radius_px": s.template_radius_px}}
+                             if s.template_radius_px is not None else
+                             {"hue_deg": s.hue_deg, "hue_tol_deg": s.hue_tol_deg,
+                              "shape": "disc" if s.flat else "blob"})
                     for s in specs},
         "tracking": {**result.to_dict(), "fill_gaps_frames": fill_gaps_frames,
                      "span": None if span is None or not span.given else

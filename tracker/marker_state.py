@@ -26,6 +26,7 @@ from .foreshortening import Foreshortening
 from .lighting import LIGHT_STEP, LUMA_WEIGHTS, light_ratio
 from .markers import AREA_GATE, Blob, MarkerSpec, place_reach
 from .scatter import STAIR_RATIO
+from .template import Template
 
 #: A fit whose residual exceeds this many times the marker's usual residual is
 #: not a whole disc (partly covered, or something of its colour touching it).
@@ -295,6 +296,9 @@ class MarkerState:
     learned_radius: float | None = None
     #: After a false start: its frames and radius (px), to be judged at the next find.
     false_start: tuple[list[int], float] | None = None
+    #: A template marker's picture (:mod:`.template`), taken where it was placed in
+    #: the first frame tracked; None before that, and for a colour or tone marker.
+    template: Template | None = None
 
     @property
     def learning(self) -> bool:

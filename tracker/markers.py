@@ -199,6 +199,10 @@ class MarkerSpec:
     #: mall, no markers): with balls allowed, A, B and C were "found" on shaded
     #: clothes and signs in 97–99 % of frames, and the rim fits took 90 % of the time.
     flat: bool = False
+    #: A marker with no colour of its own, followed by its picture from where it was
+    #: placed (:mod:`.template`): its radius (px), given with its place
+    #: (``--marker ball=template@161,53,36``). None for a colour or tone marker.
+    template_radius_px: float | None = None
 
     def takes(self, blob: Blob) -> bool:
         """Could ``blob`` be this marker by its shape? The crank-slider's printed discs
@@ -270,7 +274,10 @@ class MarkerSpec:
                 and (scale <= 2 or side >= 2 * _TONE_KERNEL.shape[0] * scale)]
 
     def mask(self, hsv: NDArray[np.uint8]) -> NDArray[np.uint8]:
-        """Pixels of this colour (255) in an OpenCV 8-bit HSV image."""
+        """Pixels of this colour (255) in an OpenCV 8-bit HSV image (none for a template
+        marker, which has no colour)."""
+        if self.template_radius_px is not None:
+            return np.zeros(hsv.shape[:2], np.uint8)
         if self.tone:
             return self._standing_out(hsv, scale=1)
         s_min = round(self.min_saturation * 255)
@@ -298,9 +305,30 @@ DEFAULT_MARKERS: tuple[MarkerSpec, ...] = tuple(
 SHAPES = ("disc", "blob")
 
 
+def _template_spec(item: str, name: str, at: str, said: str, where: str) -> MarkerSpec:
+    """A template marker from the parts of ``--marker NAME=template@X,Y,R``
+    (:func:`parse_markers`)."""
+    usage = (f"--marker {item!r}: a template marker is placed by its centre and radius in "
+             "pixels, e.g. ball=template@161,53,36")
+    if not at or said:
+        raise CranktrackError(usage)
+    try:
+        x, y, r = (float(v) for v in where.split(","))
+    except ValueError:
+        raise CranktrackError(usage) from None
+    if not (np.isfinite(x) and np.isfinite(y) and np.isfinite(r)) or r < 2.0:
+        raise CranktrackError(f"--marker {item!r}: the place must be finite pixels and the "
+                              "radius at least 2 px")
+    return MarkerSpec(name, 0.0, near_px=(x, y), template_radius_px=r)
+
+
 def parse_markers(items: list[str]) -> tuple[MarkerSpec, ...]:
     """Markers from ``NAME=COLOUR[:SHAPE][@X,Y]`` items (see
     :meth:`MarkerSpec.from_colour`).
+
+    ``NAME=template@X,Y,R`` is a marker with no colour of its own (a steel ball),
+    followed by its picture within R px of the place X,Y (px) in the first frame
+    tracked (:mod:`.template`).
 
     Naming only the crank-slider's A, B or C changes their colours and keeps the
     others at their defaults; naming any other marker tracks exactly the named
@@ -324,6 +352,12 @@ def parse_markers(items: list[str]) -> tuple[MarkerSpec, ...]:
         colour, said, shape = colour.partition(":")
         if not said:  # said after the place instead: B=green@40,60:blob
             where, said, shape = where.partition(":")
+        if colour.strip().lower() == "template":
+            spec = _template_spec(item, name, at, said, where)
+            if name in given:
+                raise CranktrackError(f"marker {name} is given twice")
+            given[name] = spec
+            continue
         if colour.strip().lower() == "none":
             if at or said:
                 raise CranktrackError(f"--marker {item!r}: a marker that is none has no shape "
@@ -361,7 +395,8 @@ def parse_markers(items: list[str]) -> tuple[MarkerSpec, ...]:
     if (given or without) and set(given) <= defaults:
         # Recoloured, still the crank-slider's flat discs unless said to be blobs (less
         # any said to be none).
-        return tuple(replace(given[s.name], flat=shapes.get(s.name) != "blob")
+        return tuple(replace(given[s.name], flat=shapes.get(s.name) != "blob"
+                             and given[s.name].template_radius_px is None)
                      if s.name in given else s
                      for s in DEFAULT_MARKERS if s.name not in without)
     return tuple(replace(spec, flat=shapes.get(name) == "disc")

@@ -66,6 +66,7 @@ from .scatter import (
     with_scatter_floor,
 )
 from .search import (
+    WIDEN_MISSED,
     balance_gains,
     full_frame_blob,
     full_hsv,
@@ -75,6 +76,7 @@ from .search import (
     search_window,
     window,
 )
+from .template import Match, Template, match_template, search_box, take_template, template_half
 from .video import Frame, FrameSource, colourless_note, timing_report
 
 #: Why a marker has no position in a frame (the ``_status`` column).
@@ -977,6 +979,76 @@ def _between_frames() -> Iterator[list[bool]]:
                       else previous)
 
 
+def _template_at_start(frame: Frame, state: MarkerState) -> Centre:
+    """A template marker's picture, taken where the user placed it in the first frame
+    tracked, and that place as its first fix (:mod:`.template`)."""
+    spec = state.spec
+    x, y = spec.near_px
+    r = spec.template_radius_px
+    half = template_half(r)
+    w, h = frame.size
+    ix, iy = round(x), round(y)
+    if not (half <= ix < w - half and half <= iy < h - half):
+        raise CranktrackError(
+            f"marker {spec.name} is placed at ({x:g}, {y:g}) with a radius of {r:g} px, so "
+            f"its picture reaches past the {w}×{h} frame; place it where it lies whole, or "
+            "start tracking where it does (--start)")
+    box = (ix - half, iy - half, ix + half + 1, iy + half + 1)
+    state.template = take_template(frame.luma(*box), box[0], box[1], (x, y), r)
+    state.radius = r
+    # The picture matched against itself leaves nothing unexplained, so its σ would be
+    # 0: the first fix takes the σ of a match one pixel over (the noise, and the
+    # resampling, of a shifted picture).
+    near = search_box(state.template, (x + 1.0, y), 1.0, frame.size)
+    first = None if near is None else match_template(frame.luma(*near), near[0], near[1],
+                                                     state.template)
+    return Centre(x, y, np.nan if first is None else first.sigma, r, True)
+
+
+def _locate_by_template(frame: Frame, state: MarkerState, pred: tuple[float, float] | None
+                        ) -> tuple[Centre | None, str]:
+    """A template marker's centre in ``frame`` and its status: its picture matched
+    around its prediction ``pred`` (px), in a window that widens while it is missed,
+    and over the whole frame at the rate a lost colour marker's is searched
+    (:func:`.search.search_whole_frame`)."""
+    if state.template is None:
+        return _template_at_start(frame, state), "ok"
+    template = state.template
+    w, h = frame.size
+    guess = pred if pred is not None else state.spec.near_px
+    if not (0.0 <= guess[0] < w and 0.0 <= guess[1] < h):
+        return None, "out_of_view"
+    wider = 2.0 ** min(state.missed, WIDEN_MISSED)
+    reach = (2.0 * state.motion_px() + max(4.0, 0.5 * template.radius)) * wider
+    if search_whole_frame(state, pred) and state.missed > 0:
+        reach = float(max(w, h))
+    box = search_box(template, guess, reach, frame.size)
+    if box is None:
+        return None, "partly_covered"
+    found = match_template(frame.luma(*box), box[0], box[1], template)
+    if found is None:
+        return None, "not_found"
+    if _at_cut_edge(found, template, box, frame.size):
+        # The best place lies against the frame's edge: the marker may be further on,
+        # partly off the frame, where no whole template fits.
+        return None, "partly_covered"
+    return Centre(found.x, found.y, found.sigma, template.radius, True,
+                  rms_residual=found.rms_residual), "ok"
+
+
+def _at_cut_edge(found: Match, template: Template, box: tuple[int, int, int, int],
+                 size: tuple[int, int]) -> bool:
+    """Does ``found``'s template lie against a side of ``box`` (px) that the frame's
+    edge cut (a frame ``size`` (width, height) px)?"""
+    left = found.x - template.anchor[0]
+    top = found.y - template.anchor[1]
+    side = template.picture.shape[0]
+    w, h = size
+    return ((box[0] == 0 and left < box[0] + 1.0) or (box[1] == 0 and top < box[1] + 1.0)
+            or (box[2] == w and left + side > box[2] - 1.0)
+            or (box[3] == h and top + side > box[3] - 1.0))
+
+
 def _locate_markers(frame: Frame, state: TrackerState) -> list:
     """Each marker's ``x, y, σ, ok, status`` in one frame, in the tracks table's order.
 
@@ -992,8 +1064,11 @@ def _locate_markers(frame: Frame, state: TrackerState) -> list:
         st.in_light(light)
     for k, st in enumerate(state.markers):
         predicted = predictions[k]
-        centre, status = _locate(frame, st, frame.t_s, hsv_cache, predicted,
-                                 wire_line if st.spec.flat else None)
+        if st.spec.template_radius_px is not None:
+            centre, status = _locate_by_template(frame, st, predicted)
+        else:
+            centre, status = _locate(frame, st, frame.t_s, hsv_cache, predicted,
+                                     wire_line if st.spec.flat else None)
         state.balance["gains"] = hsv_cache.get("gains")
         state.balance["gains_light"] = hsv_cache.get("gains_light")
         if centre is None:
@@ -1258,7 +1333,7 @@ def track(
         No frame could be decoded, or a marker found by hue is asked for in pictures
         stored without colour (:attr:`.video.FrameSource.stores_colour`).
     """
-    hued = [s.name for s in specs if not s.tone]
+    hued = [s.name for s in specs if not s.tone and s.template_radius_px is None]
     if hued and not source.stores_colour:
         raise CranktrackError(
             f"{source.path.name} is stored without colour ({source.pixel_format}, as "
@@ -1305,8 +1380,9 @@ def track(
         raise CranktrackError(f"no frame of {source.path} could be decoded{why}")
     tracks = tracks_table(state.rows, specs, state.radii())
     found = {s.name: float(tracks[s.name + "_ok"].mean()) for s in specs}
-    learned = {st.spec.name: {"hue_deg": round(st.spec.hue_deg, 2),
-                              "hue_tol_deg": round(st.spec.hue_tol_deg, 2),
+    learned = {st.spec.name: {**({} if st.spec.template_radius_px is not None else
+                                 {"hue_deg": round(st.spec.hue_deg, 2),
+                                  "hue_tol_deg": round(st.spec.hue_tol_deg, 2)}),
                               "radius_px": None if st.radius is None else round(st.radius, 3),
                               "edge_px": None if st.edge_px is None else round(st.edge_px, 3),
                               **_ellipse_learned(st)}

@@ -139,6 +139,15 @@ class Frame:
         converted.append(((x0, y0, x1, y1), rgb))
         return rgb.copy()
 
+    def luma(self, x0: int, y0: int, x1: int, y1: int) -> NDArray[np.float32]:
+        """The luminance (DN) of columns x0…x1−1 and rows y0…y1−1 (inside the frame): a
+        4:2:0 frame's own Y plane, with no colour conversion; otherwise BT.601's
+        weighting of R, G and B (OpenCV's RGB → grey)."""
+        if self.layout == "i420":
+            return self.planes()[0][y0:y1, x0:x1].astype(np.float32)
+        return cv2.cvtColor(np.ascontiguousarray(self.pixels[y0:y1, x0:x1]),
+                            cv2.COLOR_RGB2GRAY).astype(np.float32)
+
     def median_rgb(self, x0: int, y0: int, x1: int, y1: int) -> NDArray[np.float64]:
         """The median R, G and B (DN) of :meth:`region` (x0, y0, x1, y1), as
         ``np.median(region, axis=(0, 1))`` gives them."""
@@ -344,7 +353,8 @@ def colourless_note(source: FrameSource) -> str | None:
             else "holds no colour in its first picture (every pixel grey)")
     return (f"the {'folder' if source.kind == 'images' else 'video'} {what}: markers are "
             "found by hue, except white, black and grey ones; name those (--marker "
-            "NAME=white@X,Y), as `cranktrack inspect` lists them")
+            "NAME=white@X,Y), as `cranktrack inspect` lists them, or follow a marker by its "
+            "picture (--marker NAME=template@X,Y,RADIUS)")
 
 
 #: A start of the file's clock this far from 0 (s) is said: FFmpeg's MPEG-PS muxer starts

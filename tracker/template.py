@@ -1,0 +1,176 @@
+"""A marker with no colour of its own, followed by how it looks: template matching.
+
+A steel ball falling past a tape measure (a student's 1000 fps free-fall clip) is
+darker than its ground at its rim, a little brighter inside and bright where it
+mirrors the lamps. No colour or tone finds it whole. What stays the same from frame
+to frame is its picture, so the user places it once (``--marker
+ball=template@X,Y,R``: its centre and radius, px) and its pixels within R − 1 px
+of that place become its template. In each later frame the template is matched
+around the marker's predicted place by normalised cross-correlation (OpenCV's
+``TM_CCOEFF_NORMED``, with the template's disc as the mask, so the ground the
+ball passes over is left out and the match is blind to the frame's brightness
+and contrast). What places it is therefore what it shows inside its outline
+(highlights, shading, print): a plain disc of one colour has nothing there, and
+is a colour or tone marker's work.; the best match's centre is taken to a fraction of a pixel by a
+parabola through the scores on either side, on each axis.
+
+The template is never updated: a template taken again from each fix carries
+that fix's error into every later one, and the fixes walk. The match therefore
+holds while the marker looks as it first did: turning, or seen from another
+side, it is lost, and the run says so (status ``not_found``).
+
+The centre is the point the user placed, carried along: a click 2 px off the
+ball's middle gives a track 2 px off it in every frame. Motion, speed and
+acceleration are untouched by that offset.
+
+1-σ (px per axis) is the Cramér–Rao bound of a shift between two pictures,
+σ² = s² / Σ (gain · ∂T/∂x)², with s the RMS of what the template, scaled and
+offset to the frame, leaves unexplained (noise, and whatever has changed in
+its look), and ∂T/∂x the template's gradient; the larger axis's is given.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+#: How far inside the given radius the template's disc ends (px). Its rim, partly
+#: the ground behind it, is left out with the ground: on a drawn steel ball falling
+#: across a bright bar, a disc 2 px past the rim put the fixes 0.5 px off while the
+#: bar lay in that ring, against 0.04 px without it.
+INSIDE_PX = 1.0
+#: A match below this normalised correlation is not the marker. On the free-fall
+#: clip the ball's matches fall from 1 to 0.80 as it drops 700 px under the lamps,
+#: and the best place elsewhere scores under 0.3.
+LEAST_SCORE = 0.5
+
+
+@dataclass(frozen=True)
+class Template:
+    """A marker's picture (luminance, DN, float32) and the disc of it that is matched.
+
+    ``anchor`` is where the marker's centre lies in ``picture`` (x, y px from its
+    top-left pixel's centre); ``radius`` the radius the user gave (px)."""
+
+    picture: NDArray[np.float32]
+    mask: NDArray[np.float32]
+    anchor: tuple[float, float]
+    radius: float
+
+    @property
+    def half(self) -> int:
+        """Half the template's side (px): it is 2 · half + 1 square."""
+        return self.picture.shape[0] // 2
+
+
+@dataclass(frozen=True)
+class Match:
+    """Where a template was found: centre (px), per-axis 1-σ (px), the normalised
+    correlation of the match (−1…1) and the RMS of what it leaves unexplained (DN)."""
+
+    x: float
+    y: float
+    sigma: float
+    score: float
+    rms_residual: float
+
+
+def template_half(radius: float) -> int:
+    """Half the side (px) of the square that holds the template of a marker of ``radius`` px."""
+    return math.ceil(radius - INSIDE_PX)
+
+
+def take_template(luma: NDArray, x0: int, y0: int, centre: tuple[float, float],
+                  radius: float) -> Template:
+    """The template of a marker centred at ``centre`` (px, in the frame) with
+    ``radius`` (px), from ``luma``: the frame's luminance (DN) from column ``x0``
+    and row ``y0``, which must hold the whole square (:func:`template_half`).
+
+    Raises ValueError if it does not."""
+    half = template_half(radius)
+    ix, iy = round(centre[0]), round(centre[1])
+    top, left = iy - half - y0, ix - half - x0
+    if top < 0 or left < 0 or top + 2 * half + 1 > luma.shape[0] \
+            or left + 2 * half + 1 > luma.shape[1]:
+        raise ValueError("the template's square does not lie on the pixels given")
+    picture = np.ascontiguousarray(luma[top:top + 2 * half + 1, left:left + 2 * half + 1],
+                                   dtype=np.float32)
+    anchor = (centre[0] - (ix - half), centre[1] - (iy - half))
+    yy, xx = np.mgrid[:2 * half + 1, :2 * half + 1]
+    inside = np.hypot(xx - anchor[0], yy - anchor[1]) <= radius - INSIDE_PX
+    return Template(picture, inside.astype(np.float32), anchor, float(radius))
+
+
+def _vertex(before: float, at: float, after: float) -> float:
+    """Where a parabola through three scores one pixel apart peaks, relative to the
+    middle one (px, within ±0.5 when the middle one is the largest)."""
+    curve = before - 2.0 * at + after
+    if not curve < 0.0:  # flat or not a peak: keep the whole pixel
+        return 0.0
+    return float(np.clip(0.5 * (before - after) / curve, -0.5, 0.5))
+
+
+def _sigma(template: Template, window: NDArray[np.float32], col: int, row: int
+           ) -> tuple[float, float]:
+    """The per-axis 1-σ (px) of a match whose template lies at column ``col`` and row
+    ``row`` of ``window``, and the RMS (DN) of what the template, scaled and offset to
+    the window by least squares over its mask, leaves there."""
+    side = template.picture.shape[0]
+    seen = window[row:row + side, col:col + side]
+    inside = template.mask > 0
+    t = template.picture[inside].astype(np.float64)
+    s = seen[inside].astype(np.float64)
+    design = np.column_stack([t, np.ones_like(t)])
+    (gain, offset), *_ = np.linalg.lstsq(design, s, rcond=None)
+    residual = s - gain * t - offset
+    # Two parameters are taken from the pixels (gain and offset) before the scatter.
+    rms = float(np.sqrt(np.sum(residual**2) / max(t.size - 2, 1)))
+    gy, gx = np.gradient(template.picture.astype(np.float64))
+    energy = min(float(np.sum(gx[inside]**2)), float(np.sum(gy[inside]**2))) * gain**2
+    sigma = rms / math.sqrt(energy) if energy > 0.0 else math.inf
+    return sigma, rms
+
+
+def match_template(luma: NDArray, x0: int, y0: int, template: Template
+                   ) -> Match | None:
+    """The best place of ``template`` in ``luma``, the frame's luminance (DN) from
+    column ``x0`` and row ``y0`` (px); None where the pixels are narrower than the
+    template plus one pixel each way, or no place scores :data:`LEAST_SCORE`."""
+    side = template.picture.shape[0]
+    window = np.ascontiguousarray(luma, dtype=np.float32)
+    if window.shape[0] < side + 2 or window.shape[1] < side + 2:
+        return None
+    scores = cv2.matchTemplate(window, template.picture, cv2.TM_CCOEFF_NORMED,
+                               mask=template.mask)
+    # A flat window (a black frame) gives 0/0: no match there.
+    scores = np.nan_to_num(scores, nan=-1.0, posinf=-1.0, neginf=-1.0)
+    row, col = np.unravel_index(int(np.argmax(scores)), scores.shape)
+    best = float(scores[row, col])
+    if best < LEAST_SCORE:
+        return None
+    h, w = scores.shape
+    dx = _vertex(scores[row, col - 1], best, scores[row, col + 1]) if 0 < col < w - 1 else 0.0
+    dy = _vertex(scores[row - 1, col], best, scores[row + 1, col]) if 0 < row < h - 1 else 0.0
+    sigma, rms = _sigma(template, window, int(col), int(row))
+    return Match(x0 + col + dx + template.anchor[0], y0 + row + dy + template.anchor[1],
+                 sigma, best, rms)
+
+
+def search_box(template: Template, guess: tuple[float, float], reach: float,
+               size: tuple[int, int]) -> tuple[int, int, int, int] | None:
+    """The pixels (x0, y0, x1, y1) to match ``template`` in for a marker expected at
+    ``guess`` (px), up to ``reach`` px away each way, cut to a frame of ``size``
+    (width, height px); None where too little of it lies on the frame."""
+    half = template.half
+    w, h = size
+    x0 = max(math.floor(guess[0] - reach) - half - 1, 0)
+    y0 = max(math.floor(guess[1] - reach) - half - 1, 0)
+    x1 = min(math.ceil(guess[0] + reach) + half + 2, w)
+    y1 = min(math.ceil(guess[1] + reach) + half + 2, h)
+    if x1 - x0 < 2 * half + 3 or y1 - y0 < 2 * half + 3:
+        return None
+    return x0, y0, x1, y1
