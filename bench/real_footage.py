@@ -52,6 +52,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import free_fall
 from common import CACHE, Scorecard, decode_only, sure_of_nothing
 from pendulum import G, plane_swing, sphere_swing
 
@@ -422,6 +423,12 @@ def add_clip_paths(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--yupi-python", type=Path,
                     help="a Python with yupi installed, to make yupi's own tracks of the "
                          "rover's LED and the blue ball (bench/yupi_peer.py)")
+    ap.add_argument("--free-fall", type=Path,
+                    help="a checkout of SantiagoGiraldoM17/LaboratorioCaidaLibre, or its git "
+                         "directory: a steel ball falling past a tape measure (bench/free_fall.py)")
+    ap.add_argument("--mosse-python", type=Path,
+                    help="a Python with opencv-contrib installed, to make the student's own "
+                         "MOSSE track of the falling ball (bench/mosse_peer.py)")
 
 
 def run_clip(repo: Path, clip: Clip, card: Scorecard) -> dict[str, float]:
@@ -1119,18 +1126,104 @@ def run_balls(repo: Path, yupi_python: Path | None, card: Scorecard) -> None:
     score_common(card, name, result, ball, track_s, decode_s)
 
 
+def run_free_fall(repo: Path, mosse_python: Path | None, card: Scorecard) -> None:
+    """Track the student's falling steel ball by its picture, and check it against the
+    tape's scale, g, its outline and the student's MOSSE track (:mod:`free_fall`; and
+    score the figures on ``card``)."""
+    video = _extracted_or_said(repo, free_fall.CLIP, "")
+    if video is None:
+        return
+    result, ball, track_s, decode_s = timed_track(video, free_fall.FPS, free_fall.MARKER)
+    tab = result.tracks
+    ok = tab[f"{ball}_ok"].to_numpy(bool)
+    spec = parse_markers([free_fall.MARKER])[0]
+    radius = spec.template_radius_px
+    frames = free_fall.grey_frames(video)
+    height = frames[0].shape[0]
+    t = tab["t_s"].to_numpy(float)
+    xy = tab[[f"{ball}_x_px", f"{ball}_y_px"]].to_numpy(float)
+    sigma = tab[f"{ball}_sigma_px"].to_numpy(float)
+    falling = ok & (tab["frame"].to_numpy() >= free_fall.FALLING_FROM)
+    accel, left = free_fall.parabola(t[falling], xy[falling, 1])
+    # In view: the whole ball on the frame, by the parabola (the last frames run past
+    # the bottom edge).
+    coef = np.polyfit(t[falling], xy[falling, 1], 2)
+    whole = np.polyval(coef, t) + radius < height - 1
+    print(f"\n{free_fall.CLIP} (a student's steel ball falling past a tape measure, "
+          f"{len(tab)} frames at {free_fall.FPS:.0f} fps): `--fps {free_fall.FPS:.0f} "
+          f"--marker {free_fall.MARKER}`")
+    print(f"  the ball lies whole on the frame in {whole.sum()} frames; found in "
+          f"{ok[whole].sum()} of them ({100 * ok[whole].mean():.1f} %; aim ≥ 95 %)")
+    card.add(free_fall.CLIP, "found while whole in view", f"{100 * ok[whole].mean():.1f} %",
+             "≥ 95 %", ok[whole].mean() >= 0.95)
+    mm, from_cm = free_fall.tape_px_per_mm(frames[0])
+    g = accel / mm / 1000.0
+    print(f"  the tape's scale: {mm:.4f} px/mm from its millimetre ticks ({from_cm:.4f} from "
+          f"its centimetre ticks alone)")
+    rms = float(np.sqrt(np.mean(left**2)))
+    print(f"  a parabola through the {falling.sum()} fixes from frame "
+          f"{free_fall.FALLING_FROM} on leaves {rms:.3f} px RMS: {accel:.0f} px/s², g = "
+          f"{g:.3f} m/s² ({100 * (g / free_fall.G - 1):+.1f} % from {free_fall.G}; aim within "
+          f"2 %)")
+    card.add(free_fall.CLIP, "g with the tape's ticks as the scale",
+             f"{100 * (g / free_fall.G - 1):+.1f} %", "within 2 %",
+             abs(g / free_fall.G - 1) <= 0.02)
+    covered = float(np.mean(np.abs(left) <= sigma[falling]))
+    print(f"  σ median {np.median(sigma[falling]):.3f} px; ±1σ coverage against the parabola "
+          f"(y) {100 * covered:.0f} % (aim 50–90 %)")
+    card.add(free_fall.CLIP, "±1σ coverage against the parabola", f"{100 * covered:.0f} %",
+             "50–90 %", 0.5 <= covered <= 0.9)
+    rim = np.array([free_fall.rim_circle(frames[k], *xy[k], radius) for k in
+                    np.flatnonzero(falling & whole)])
+    rim_accel, rim_left = free_fall.parabola(t[falling & whole], rim[:, 1])
+    drift = np.polyfit(t[falling & whole], xy[falling & whole, 0], 1)[0]
+    rim_drift = np.polyfit(t[falling & whole], rim[:, 0], 1)[0]
+    print(f"  the ball's outline (a circle fitted to its rim here, {np.median(rim[:, 2]):.1f} "
+          f"px in radius): g = {rim_accel / mm / 1000.0:.3f} m/s², its parabola leaving "
+          f"{np.sqrt(np.mean(rim_left**2)):.2f} px RMS; across the fall it moves "
+          f"{drift * np.ptp(t[falling & whole]):+.2f} px in x by our track and "
+          f"{rim_drift * np.ptp(t[falling & whole]):+.2f} px by its outline")
+    if mosse_python is not None:
+        peer = free_fall.mosse_track(video, mosse_python, *spec.near_px, radius)
+        if peer is not None:
+            theirs = peer.set_index("frame")
+            common = [k for k in theirs.index if ok[k] and whole[k] and theirs.at[k, "found"]]
+            diff = xy[common] - theirs.loc[common, ["x_px", "y_px"]].to_numpy(float)
+            offset = diff.mean(axis=0)
+            rms_peer = float(np.sqrt(np.mean(np.sum((diff - offset) ** 2, axis=1))))
+            sel = [k for k in common if falling[k]]
+            peer_accel, peer_left = free_fall.parabola(
+                t[sel], theirs.loc[sel, "y_px"].to_numpy(float))
+            print(f"  the student's MOSSE tracker (whole pixels) against ours on the "
+                  f"{len(common)} frames both hold: RMS {rms_peer:.2f} px after removing the "
+                  f"offset ({offset[0]:+.2f}, {offset[1]:+.2f}) px (aim ≤ 1 px); its g "
+                  f"{peer_accel / mm / 1000.0:.3f} m/s², its parabola leaving "
+                  f"{np.sqrt(np.mean(peer_left**2)):.2f} px RMS; its x moves "
+                  f"{np.ptp(theirs.loc[common, 'x_px']):.2f} px")
+            card.add(free_fall.CLIP, "RMS against the student's MOSSE", f"{rms_peer:.2f} px",
+                     "≤ 1 px", rms_peer <= 1.0)
+    else:
+        print("  no --mosse-python given: the student's MOSSE track not made")
+    print(f"  time (median of {TIMINGS} runs each): tracking {track_s:.2f} s, PyAV decoding "
+          f"to RGB alone {decode_s:.2f} s (ratio decode/track {decode_s / track_s:.2f}; "
+          "aim ≥ 0.9 on clips over 10 s)")
+    score_common(card, free_fall.CLIP, result, ball, track_s, decode_s)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     add_clip_paths(ap)
     args = ap.parse_args()
     print(f"libraries: {versions_line()}")
-    given = [p for p in (args.tracker, args.pendulum, args.rover)
+    given = [p for p in (args.tracker, args.pendulum, args.rover, args.free_fall)
              if p is not None and p.exists()]
     if not given:
         print("usage: bench/real_footage.py [PATH-TO-OpenSourcePhysics/tracker] "
               "[--pendulum PATH-TO-juangomez177/Pendulum_Oscillatory_Motion] "
-              "[--yupi PATH-TO-yupidevs/yupi_examples [--yupi-python PYTHON]] (checkouts or "
-              "their git directories); no path given, nothing measured")
+              "[--yupi PATH-TO-yupidevs/yupi_examples [--yupi-python PYTHON]] "
+              "[--free-fall PATH-TO-SantiagoGiraldoM17/LaboratorioCaidaLibre "
+              "[--mosse-python PYTHON]] (checkouts or their git directories); no path given, "
+              "nothing measured")
         return
     # The kernels compiled (or read from numba's cache) before any clip is timed.
     compile_kernels()
@@ -1149,6 +1242,8 @@ def main() -> None:
     if args.rover is not None and args.rover.exists():
         run_rover(args.rover, args.yupi_python, card)
         run_balls(args.rover, args.yupi_python, card)
+    if args.free_fall is not None and args.free_fall.exists():
+        run_free_fall(args.free_fall, args.mosse_python, card)
     card.show()
 
 
