@@ -21,6 +21,7 @@ the tracker says it still holds the ball.
 from __future__ import annotations
 
 import argparse
+import itertools
 import sys
 
 import cv2
@@ -42,12 +43,10 @@ def main() -> None:
     tracker.init(frame, (args.x - args.r, args.y - args.r, side, side))
     print("frame,x_px,y_px,found")
     print(f"0,{args.x},{args.y},1")
-    index = 0
-    while True:
+    for index in itertools.count(1):
         ok, frame = capture.read()
         if not ok:
-            break
-        index += 1
+            return
         held, (left, top, w, h) = tracker.update(frame)
         print(f"{index},{left + w / 2.0},{top + h / 2.0},{int(held)}")
 
