@@ -258,7 +258,9 @@ def _track_command(sub: argparse._SubParsersAction) -> None:
                         "blobs, unless said. Repeat per marker. Naming only A, B or "
                         "C recolours them; naming any other tracks exactly the named ones. "
                         "C=none: no slider marker, θ is A→B's angle from the x axis. "
-                        "Defaults: A=green B=red C=blue")
+                        "NAME=template@X,Y,R: a marker with no colour of its own (a steel "
+                        "ball), followed by its picture within R px of X,Y in the first "
+                        "frame. Defaults: A=green B=red C=blue")
     p.add_argument("--calibration", metavar="PLANE.json",
                    help="plane calibration from `cranktrack calibrate plane`; with it, "
                         "--known-length is only checked")
