@@ -133,3 +133,26 @@ def test_a_template_reaching_past_the_frame_is_refused_in_one_sentence(falls):
     folder, _ = falls[0]
     with pytest.raises(CranktrackError, match="reaches past the 200×360 frame"):
         track(open_frames(folder, fps=FPS), parse_markers(["ball=template@5,30,13"]))
+
+
+def test_a_ball_hidden_behind_a_plate_is_found_again_and_never_taken_off_its_place(
+        tmp_path):
+    h = SIZE[1]
+    truth, pictures = frames(FRAMES, seed=3)
+    top, bottom = 200, 240  # a plate in front of the fall, drawn over every frame
+    for k, picture in enumerate(pictures):
+        picture[top:bottom, 40:130] = 120
+        cv2.imwrite(str(tmp_path / f"f{k:03d}.png"), picture)
+    tab = track(open_frames(tmp_path, fps=FPS),
+                parse_markers([f"ball=template@{X0},{Y0},{RADIUS}"])).tracks
+    ok = tab["ball_ok"].to_numpy(bool)
+    y = truth[:, 1]
+    hidden = (y + RADIUS > top) & (y - RADIUS < bottom)
+    clear = (y + RADIUS < top - 1) | ((y - RADIUS > bottom + 1) & (y + RADIUS < h - 1))
+    assert hidden.sum() >= 3 and not ok[hidden & (np.abs(y - (top + bottom) / 2) < 8)].any()
+    err = np.hypot(*(tab[["ball_x_px", "ball_y_px"]].to_numpy() - truth)[ok].T)
+    assert err.max() < 0.5, tab.loc[ok, ["frame", "ball_y_px", "ball_status"]][err >= 0.5]
+    below = clear & (y > bottom)
+    # Out from behind the plate, it is found again within two frames.
+    first = int(np.flatnonzero(below)[0])
+    assert ok[first + 2:][below[first + 2:]].all(), tab.loc[below, ["frame", "ball_status"]]

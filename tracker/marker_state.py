@@ -229,7 +229,9 @@ class MarkerState:
     #: The factors (R, G, B) the colour is fitted with on a second try in another
     #: light (:meth:`try_light`); None otherwise.
     lit: NDArray | None = None
-    residual: float | None = None  # usual RMS residual of the disc fit
+    #: Usual RMS residual of the disc fit; for a template marker, how unlike its
+    #: picture its matches usually are (1 − score).
+    residual: float | None = None
     area_alpha: float | None = None  # usual visible area Σα, px²
     radius_sq: float | None = None  # usual fitted radius², px², weighed as area_alpha
     peak: float | None = None  # usual α in the marker's middle (Centre.peak)

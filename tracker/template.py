@@ -70,13 +70,16 @@ class Template:
 @dataclass(frozen=True)
 class Match:
     """Where a template was found: centre (px), per-axis 1-σ (px), the normalised
-    correlation of the match (−1…1) and the RMS of what it leaves unexplained (DN)."""
+    correlation of the match (−1…1) and the RMS of what it leaves unexplained (DN).
+    ``bordered``: the best place lies on the border of the places tried, so a better
+    one may lie past it (and the centre is read to the whole pixel on that axis)."""
 
     x: float
     y: float
     sigma: float
     score: float
     rms_residual: float
+    bordered: bool = False
 
 
 def template_half(radius: float) -> int:
@@ -157,7 +160,7 @@ def match_template(luma: NDArray, x0: int, y0: int, template: Template
     dy = _vertex(scores[row - 1, col], best, scores[row + 1, col]) if 0 < row < h - 1 else 0.0
     sigma, rms = _sigma(template, window, int(col), int(row))
     return Match(x0 + col + dx + template.anchor[0], y0 + row + dy + template.anchor[1],
-                 sigma, best, rms)
+                 sigma, best, rms, not (0 < col < w - 1 and 0 < row < h - 1))
 
 
 def search_box(template: Template, guess: tuple[float, float], reach: float,
