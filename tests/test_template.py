@@ -150,9 +150,10 @@ def test_a_ball_hidden_behind_a_plate_is_found_again_and_never_taken_off_its_pla
     hidden = (y + RADIUS > top) & (y - RADIUS < bottom)
     clear = (y + RADIUS < top - 1) | ((y - RADIUS > bottom + 1) & (y + RADIUS < h - 1))
     assert hidden.sum() >= 3 and not ok[hidden & (np.abs(y - (top + bottom) / 2) < 8)].any()
+    # No fix from a ball partly behind the plate: elsewhere the fixes are within
+    # 0.06 px of the drawing, and one a sixth hidden was 0.45 px off.
     err = np.hypot(*(tab[["ball_x_px", "ball_y_px"]].to_numpy() - truth)[ok].T)
-    assert err.max() < 0.5, tab.loc[ok, ["frame", "ball_y_px", "ball_status"]][err >= 0.5]
+    assert err.max() < 0.2, tab.loc[ok, ["frame", "ball_y_px", "ball_status"]][err >= 0.2]
+    # Out from behind the plate, it is found again in every frame it is whole.
     below = clear & (y > bottom)
-    # Out from behind the plate, it is found again within two frames.
-    first = int(np.flatnonzero(below)[0])
-    assert ok[first + 2:][below[first + 2:]].all(), tab.loc[below, ["frame", "ball_status"]]
+    assert ok[below].all(), tab.loc[below, ["frame", "ball_status"]]
