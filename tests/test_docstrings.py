@@ -14,6 +14,7 @@ MODULES = [
     "cranktrack.tracker.track",
     "cranktrack.tracker.coverage",
     "cranktrack.tracker.scatter",
+    "cranktrack.tracker.template",
     "cranktrack.tracker.lighting",
     "cranktrack.tracker.video",
     "cranktrack.tracker.pictures",

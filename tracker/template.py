@@ -60,6 +60,9 @@ class Template:
     mask: NDArray[np.float32]
     anchor: tuple[float, float]
     radius: float
+    #: The smaller of Σ (∂T/∂x)² and Σ (∂T/∂y)² over the mask (DN²): how sharply the
+    #: picture places a shift on its weaker axis (:func:`_sigma`).
+    energy: float
 
     @property
     def half(self) -> int:
@@ -105,7 +108,9 @@ def take_template(luma: NDArray, x0: int, y0: int, centre: tuple[float, float],
     anchor = (centre[0] - (ix - half), centre[1] - (iy - half))
     yy, xx = np.mgrid[:2 * half + 1, :2 * half + 1]
     inside = np.hypot(xx - anchor[0], yy - anchor[1]) <= radius - INSIDE_PX
-    return Template(picture, inside.astype(np.float32), anchor, float(radius))
+    gy, gx = np.gradient(picture.astype(np.float64))
+    energy = min(float(np.sum(gx[inside]**2)), float(np.sum(gy[inside]**2)))
+    return Template(picture, inside.astype(np.float32), anchor, float(radius), energy)
 
 
 def _vertex(before: float, at: float, after: float) -> float:
@@ -132,8 +137,7 @@ def _sigma(template: Template, window: NDArray[np.float32], col: int, row: int
     residual = s - gain * t - offset
     # Two parameters are taken from the pixels (gain and offset) before the scatter.
     rms = float(np.sqrt(np.sum(residual**2) / max(t.size - 2, 1)))
-    gy, gx = np.gradient(template.picture.astype(np.float64))
-    energy = min(float(np.sum(gx[inside]**2)), float(np.sum(gy[inside]**2))) * gain**2
+    energy = template.energy * gain**2
     sigma = rms / math.sqrt(energy) if energy > 0.0 else math.inf
     return sigma, rms
 
@@ -142,7 +146,21 @@ def match_template(luma: NDArray, x0: int, y0: int, template: Template
                    ) -> Match | None:
     """The best place of ``template`` in ``luma``, the frame's luminance (DN) from
     column ``x0`` and row ``y0`` (px); None where the pixels are narrower than the
-    template plus one pixel each way, or no place scores :data:`LEAST_SCORE`."""
+    template plus one pixel each way, or no place scores :data:`LEAST_SCORE`.
+
+    Examples
+    --------
+    A textured patch taken about (30.5, 25.0), found again after the picture has moved
+    2 px left and 3 px down, so at (28.5, 28.0). On a texture of pixel-sized grain the
+    parabola through the scores reads the peak to about a hundredth of a pixel:
+
+    >>> import numpy as np
+    >>> scene = np.random.default_rng(1).normal(100.0, 20.0, (60, 80))
+    >>> template = take_template(scene, 0, 0, (30.5, 25.0), 8.0)
+    >>> found = match_template(np.roll(scene, (3, -2), axis=(0, 1)), 0, 0, template)
+    >>> round(float(found.x), 3), round(float(found.y), 3), round(found.score, 3)
+    (28.488, 28.004, 1.0)
+    """
     side = template.picture.shape[0]
     window = np.ascontiguousarray(luma, dtype=np.float32)
     if window.shape[0] < side + 2 or window.shape[1] < side + 2:
