@@ -157,3 +157,16 @@ def test_a_ball_hidden_behind_a_plate_is_found_again_and_never_taken_off_its_pla
     # Out from behind the plate, it is found again in every frame it is whole.
     below = clear & (y > bottom)
     assert ok[below].all(), tab.loc[below, ["frame", "ball_status"]]
+
+
+def test_a_plain_disc_placed_as_a_template_is_refused_with_what_to_do_instead(tmp_path):
+    # A grey disc of one level on a plain ground, with the sensor's noise: inside its
+    # rim there is nothing but noise to follow.
+    y, x = np.mgrid[0:120, 0:160]
+    rng = np.random.default_rng(0)
+    for k in range(3):
+        disc = np.where(np.hypot(x - 60 - 2 * k, y - 50) < 12, 200.0, 60.0)
+        picture = np.clip(disc + rng.normal(0.0, 1.5, disc.shape), 0, 255).astype(np.uint8)
+        cv2.imwrite(str(tmp_path / f"f{k}.png"), picture)
+    with pytest.raises(CranktrackError, match=r"plain.*--marker disc=white@60,50"):
+        track(open_frames(tmp_path, fps=10.0), parse_markers(["disc=template@60,50,12"]))

@@ -43,6 +43,11 @@ from numpy.typing import NDArray
 #: across a bright bar, a disc 2 px past the rim put the fixes 0.5 px off while the
 #: bar lay in that ring, against 0.04 px without it.
 INSIDE_PX = 1.0
+#: A picture whose spread (its grey levels' standard deviation) is under this many
+#: times its noise holds nothing to follow (:attr:`Template.plain`): a plain grey disc
+#: drawn with 1.5 DN of noise had 1.2, the test's drawn steel ball 16, the free-fall
+#: clip's ball 44.
+PLAIN_CONTRAST = 3.0
 #: A match below this normalised correlation is not the marker. On the free-fall
 #: clip the ball's matches fall from 1 to 0.80 as it drops 700 px under the lamps,
 #: and the best place elsewhere scores under 0.3.
@@ -63,6 +68,20 @@ class Template:
     #: The smaller of Σ (∂T/∂x)² and Σ (∂T/∂y)² over the mask (DN²): how sharply the
     #: picture places a shift on its weaker axis (:func:`_sigma`).
     energy: float
+    #: The picture's noise (DN, :func:`noise_dn`).
+    noise: float
+
+    @property
+    def plain(self) -> bool:
+        """Does the picture hold little more than its noise (its spread under
+        :data:`PLAIN_CONTRAST` times the noise), so that there is nothing to follow?"""
+        return float(np.std(self.picture[self.mask > 0])) < PLAIN_CONTRAST * self.noise
+
+    @property
+    def sigma(self) -> float:
+        """The 1-σ (px) of the place the picture was taken about, against the fixes
+        that match it later: its own noise over its gradient energy."""
+        return self.noise / math.sqrt(self.energy) if self.energy > 0.0 else math.inf
 
     @property
     def half(self) -> int:
@@ -110,7 +129,23 @@ def take_template(luma: NDArray, x0: int, y0: int, centre: tuple[float, float],
     inside = np.hypot(xx - anchor[0], yy - anchor[1]) <= radius - INSIDE_PX
     gy, gx = np.gradient(picture.astype(np.float64))
     energy = min(float(np.sum(gx[inside]**2)), float(np.sum(gy[inside]**2)))
-    return Template(picture, inside.astype(np.float32), anchor, float(radius), energy)
+    mask = inside.astype(np.float32)
+    return Template(picture, mask, anchor, float(radius), energy, noise_dn(picture, mask))
+
+
+def noise_dn(picture: NDArray, mask: NDArray) -> float:
+    """The noise (1-σ, DN) of ``picture`` within ``mask``, by Immerkær's estimate: the
+    mean absolute response to a filter that cancels any plane and any quadratic
+    shading, over the pixels whose 3×3 neighbours all lie in the mask (so the
+    marker's outline does not count). Texture finer than that counts as noise.
+    (J. Immerkær, "Fast noise variance estimation", 1996.)"""
+    kernel = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float64)
+    response = cv2.filter2D(np.asarray(picture, np.float64), -1, kernel,
+                            borderType=cv2.BORDER_REPLICATE)
+    inner = cv2.erode(np.asarray(mask, np.uint8), np.ones((3, 3), np.uint8)) > 0
+    if not inner.any():
+        return math.inf
+    return float(math.sqrt(math.pi / 2.0) * np.mean(np.abs(response[inner])) / 6.0)
 
 
 def _vertex(before: float, at: float, after: float) -> float:

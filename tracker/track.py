@@ -1006,13 +1006,16 @@ def _template_at_start(frame: Frame, state: MarkerState) -> Centre:
     box = (ix - half, iy - half, ix + half + 1, iy + half + 1)
     state.template = take_template(frame.luma(*box), box[0], box[1], (x, y), r)
     state.radius = r
-    # The picture matched against itself leaves nothing unexplained, so its σ would be
-    # 0: the first fix takes the σ of a match one pixel over (the noise, and the
-    # resampling, of a shifted picture).
-    near = search_box(state.template, (x + 1.0, y), 1.0, frame.size)
-    first = None if near is None else match_template(frame.luma(*near), near[0], near[1],
-                                                     state.template)
-    return Centre(x, y, np.nan if first is None else first.sigma, r, True)
+    if state.template.plain:
+        raise CranktrackError(
+            f"marker {spec.name}'s picture within {r:g} px of ({x:g}, {y:g}) is plain, so "
+            "there is nothing in it to follow: a template marker is followed by what it "
+            "shows inside its outline (highlights, shading, print); a plain disc or ball is "
+            f"found by its colour or tone instead (--marker {spec.name}=white@{x:g},{y:g}, "
+            "or the colour `cranktrack inspect` lists it with)")
+    # The place given is where the picture was taken: its σ is the picture's own noise
+    # over its gradients (matched against itself it would leave nothing, and say 0).
+    return Centre(x, y, state.template.sigma, r, True)
 
 
 def _locate_by_template(frame: Frame, state: MarkerState, pred: tuple[float, float] | None
