@@ -65,17 +65,30 @@ class Template:
     mask: NDArray[np.float32]
     anchor: tuple[float, float]
     radius: float
+    #: Where its centre was in the frame it was taken from (px).
+    taken_at: tuple[float, float]
     #: The smaller of Σ (∂T/∂x)² and Σ (∂T/∂y)² over the mask (DN²): how sharply the
     #: picture places a shift on its weaker axis (:func:`_sigma`).
     energy: float
     #: The picture's noise (DN, :func:`noise_dn`).
     noise: float
+    #: The likest other place in the frame it was taken from (x, y px, score): how
+    #: like the marker something else in the scene looks (:func:`likest_other`).
+    rival: tuple[float, float, float] = (np.nan, np.nan, -1.0)
 
     @property
     def plain(self) -> bool:
         """Does the picture hold little more than its noise (its spread under
         :data:`PLAIN_CONTRAST` times the noise), so that there is nothing to follow?"""
         return float(np.std(self.picture[self.mask > 0])) < PLAIN_CONTRAST * self.noise
+
+    @property
+    def unlike(self) -> float:
+        """How unlike its picture a later match of the marker is expected to be, from
+        the noise alone (1 − the correlation of two noisy copies): the noise's share
+        of the picture's variance."""
+        spread = float(np.var(self.picture[self.mask > 0]))
+        return min(self.noise**2 / spread, 1.0) if spread > 0.0 else 1.0
 
     @property
     def sigma(self) -> float:
@@ -130,7 +143,28 @@ def take_template(luma: NDArray, x0: int, y0: int, centre: tuple[float, float],
     gy, gx = np.gradient(picture.astype(np.float64))
     energy = min(float(np.sum(gx[inside]**2)), float(np.sum(gy[inside]**2)))
     mask = inside.astype(np.float32)
-    return Template(picture, mask, anchor, float(radius), energy, noise_dn(picture, mask))
+    return Template(picture, mask, anchor, float(radius), (float(centre[0]), float(centre[1])),
+                    energy, noise_dn(picture, mask))
+
+
+def likest_other(luma: NDArray, template: Template) -> tuple[float, float, float]:
+    """The best match of ``template`` in ``luma`` (the whole frame it was taken from, DN)
+    more than its own width from where it was taken: (x, y, score), its centre in px;
+    score −1 where there is no other place."""
+    side = template.picture.shape[0]
+    frame = np.ascontiguousarray(luma, dtype=np.float32)
+    if frame.shape[0] < side or frame.shape[1] < side:
+        return (np.nan, np.nan, -1.0)
+    scores = cv2.matchTemplate(frame, template.picture, cv2.TM_CCOEFF_NORMED,
+                               mask=template.mask)
+    scores = np.nan_to_num(scores, nan=-1.0, posinf=-1.0, neginf=-1.0)
+    # Its own place, and the places whose template overlaps it by half or more.
+    col = round(template.taken_at[0] - template.anchor[0])
+    row = round(template.taken_at[1] - template.anchor[1])
+    scores[max(row - side, 0):row + side + 1, max(col - side, 0):col + side + 1] = -1.0
+    row, col = np.unravel_index(int(np.argmax(scores)), scores.shape)
+    return (float(col + template.anchor[0]), float(row + template.anchor[1]),
+            float(scores[row, col]))
 
 
 def noise_dn(picture: NDArray, mask: NDArray) -> float:

@@ -75,18 +75,30 @@ from .search import (
     search_window,
     window,
 )
-from .template import Match, Template, match_template, search_box, take_template, template_half
+from .template import (
+    Match,
+    Template,
+    likest_other,
+    match_template,
+    search_box,
+    take_template,
+    template_half,
+)
 from .video import Frame, FrameSource, colourless_note, timing_report
 
 #: Why a marker has no position in a frame (the ``_status`` column).
 STATUSES = {
     "ok": "found",
-    "not_found": "no blob of the marker's colour where it was looked for",
-    "rejected": "blobs of the colour, but none of the marker's size and shape",
+    "not_found": "no blob of the marker's colour where it was looked for (a template "
+                 "marker: no place like its picture)",
+    "rejected": "blobs of the colour, but none of the marker's size and shape (a template "
+                "marker: the place found far off was no likelier than the likest other "
+                "place in the first frame)",
     "out_of_view": "the predicted position is outside the image",
     "refine_failed": "a blob was found but no sub-pixel centre could be fitted",
     "partly_covered": "the marker is there but does not look like a whole disc "
-                      "(its fit residual is far above usual), so its centre is not trusted",
+                      "(its fit residual is far above usual; a template marker: its match "
+                      "scores far under its usual), so its centre is not trusted",
     "same_blob": "two markers were found on one blob; neither is kept there",
     "not_sought": "lost for a second or more, so looked for only on some frames "
                   "(tracker/search.py, search_window), not on this one",
@@ -987,6 +999,14 @@ TEMPLATE_DROP = 0.1
 #: in each; then at a colour marker's falling rate (:func:`.search.search_whole_frame`).
 #: The whole 384×800 free-fall frame takes 11 ms against 0.4 ms to decode it.
 TEMPLATE_EVERY_FRAME_MISSED = 16
+#: How far (radii, and at least 40 px) a template marker is sought from its place
+#: while it has no velocity yet.
+TEMPLATE_FIRST_REACH = 4.0
+#: Sought widely, a template marker's match away from where it was looked for is taken
+#: only if it is likelier by this much than the likest other place in the first frame
+#: (:func:`.template.likest_other`). On Tracker's car clip a post 490 px from the car
+#: matched its picture at 0.92 in the first frame, and was taken for it once it was lost.
+TEMPLATE_RIVAL_MARGIN = 0.02
 
 
 def _template_at_start(frame: Frame, state: MarkerState) -> Centre:
@@ -1013,6 +1033,20 @@ def _template_at_start(frame: Frame, state: MarkerState) -> Centre:
             "shows inside its outline (highlights, shading, print); a plain disc or ball is "
             f"found by its colour or tone instead (--marker {spec.name}=white@{x:g},{y:g}, "
             "or the colour `cranktrack inspect` lists it with)")
+    rival = likest_other(frame.luma(0, 0, w, h), state.template)
+    state.template = replace(state.template, rival=rival)
+    if rival[2] >= 1.0 - state.template.unlike - TEMPLATE_DROP:
+        state.notes.append(
+            f"marker {spec.name}: another place in the first frame, ({rival[0]:.0f}, "
+            f"{rival[1]:.0f}), looks almost as like its picture (a match of "
+            f"{rival[2]:.2f}), so where it is lost it is not sought past its window; a "
+            "radius that takes in more of what only it shows makes it surer")
+    # How unlike its picture a match usually is starts from what the noise alone
+    # gives: a first match far worse is refused like any sudden drop. Without it, the
+    # first match set the usual: on Tracker's car clip (a streaked car, 70 px a frame)
+    # that was a wrong place 20 px off, and then a post 500 px away was taken in 46
+    # frames.
+    state.residual = state.template.unlike
     # The place given is where the picture was taken: its σ is the picture's own noise
     # over its gradients (matched against itself it would leave nothing, and say 0).
     return Centre(x, y, state.template.sigma, r, True)
@@ -1021,9 +1055,11 @@ def _template_at_start(frame: Frame, state: MarkerState) -> Centre:
 def _locate_by_template(frame: Frame, state: MarkerState, pred: tuple[float, float] | None
                         ) -> tuple[Centre | None, str]:
     """A template marker's centre in ``frame`` and its status: its picture matched
-    around its prediction ``pred`` (px), over the whole frame in each of the first
-    :data:`TEMPLATE_EVERY_FRAME_MISSED` frames it is missed, and then at the rate a
-    lost colour marker's is searched (:func:`.search.search_whole_frame`)."""
+    around its prediction ``pred`` (px); over the whole frame while it has no velocity
+    yet and in each of the first :data:`TEMPLATE_EVERY_FRAME_MISSED` frames it is
+    missed, and then at the rate a lost colour marker's is searched
+    (:func:`.search.search_whole_frame`). A match scoring :data:`TEMPLATE_DROP` under
+    its usual is refused (``partly_covered``)."""
     if state.template is None:
         return _template_at_start(frame, state), "ok"
     template = state.template
@@ -1035,10 +1071,17 @@ def _locate_by_template(frame: Frame, state: MarkerState, pred: tuple[float, flo
     # about where it was found (below). Matching 18 px each way took 1.1 ms a frame
     # on the free-fall clip, 4 px 0.66 ms.
     reach = 2.0 * state.motion_px() + 4.0
-    if state.missed > 0 and (state.missed <= TEMPLATE_EVERY_FRAME_MISSED
-                             or search_whole_frame(state, pred)):
-        # Its motion is not carried past a few misses (KEEP_MOTION_MISSED), so a ball
-        # falling behind a plate comes out where no window about its last fix reaches.
+    local = reach
+    if len(state.history) < 2:
+        # With no velocity yet it may be anywhere near: a thrown ball moves radii a
+        # frame. Not the whole frame: on Tracker's car clip that took a post 560 px away.
+        reach = max(TEMPLATE_FIRST_REACH * template.radius, 40.0)
+    elif state.missed > 0 and template.rival[2] < 1.0 - template.unlike - TEMPLATE_DROP \
+            and (state.missed <= TEMPLATE_EVERY_FRAME_MISSED
+                 or search_whole_frame(state, pred)):
+        # Missed, its motion is not carried past a few frames (KEEP_MOTION_MISSED), so
+        # a ball falling behind a plate comes out where no window about its last fix
+        # reaches.
         reach = float(max(w, h))
     box = search_box(template, guess, reach, frame.size)
     if box is None:
@@ -1060,6 +1103,11 @@ def _locate_by_template(frame: Frame, state: MarkerState, pred: tuple[float, flo
         # The best place lies against the frame's edge: the marker may be further on,
         # partly off the frame, where no whole template fits.
         return None, "partly_covered"
+    if reach > local and found.score <= template.rival[2] + TEMPLATE_RIVAL_MARGIN \
+            and np.hypot(found.x - guess[0], found.y - guess[1]) > local:
+        # Sought widely and found away from where it was looked for, no likelier than
+        # the likest other place in the first frame: that place's kind, not the marker.
+        return None, "rejected"
     # How unlike its picture it usually is (1 − the match's score), over the matches
     # taken: its look may change slowly (turning, in another light), not at once.
     unlike = 1.0 - found.score
