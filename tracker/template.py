@@ -9,15 +9,17 @@ of that place become its template. In each later frame the template is matched
 around the marker's predicted place by normalised cross-correlation (OpenCV's
 ``TM_CCOEFF_NORMED``, with the template's disc as the mask, so the ground the
 ball passes over is left out and the match is blind to the frame's brightness
-and contrast). What places it is therefore what it shows inside its outline
-(highlights, shading, print): a plain disc of one colour has nothing there, and
-is a colour or tone marker's work.; the best match's centre is taken to a fraction of a pixel by a
-parabola through the scores on either side, on each axis.
+and contrast). The best match's centre is taken to a fraction of a pixel by a
+parabola through the scores on either side, on each axis. What places it is
+therefore what it shows inside its outline (highlights, shading, print): a plain
+disc of one colour has nothing there (:attr:`Template.plain`), and is a colour or
+tone marker's work.
 
 The template is never updated: a template taken again from each fix carries
 that fix's error into every later one, and the fixes walk. The match therefore
-holds while the marker looks as it first did: turning, or seen from another
-side, it is lost, and the run says so (status ``not_found``).
+holds while the marker looks as it first did: turning, seen from another side or
+partly hidden, it is lost, and the run says so (``not_found``, ``partly_covered``
+or ``rejected``: :func:`.track._locate_by_template`).
 
 The centre is the point the user placed, carried along: a click 2 px off the
 ball's middle gives a track 2 px off it in every frame. Motion, speed and
@@ -49,8 +51,9 @@ INSIDE_PX = 1.0
 #: clip's ball 44.
 PLAIN_CONTRAST = 3.0
 #: A match below this normalised correlation is not the marker. On the free-fall
-#: clip the ball's matches fall from 1 to 0.80 as it drops 700 px under the lamps,
-#: and the best place elsewhere scores under 0.3.
+#: clip the ball's matches fall from 1 to 0.81 as it drops 700 px under the lamps,
+#: and the likest other place in its first frame scores 0.63 (the run's later checks
+#: judge matches above this floor: :func:`.track._locate_by_template`).
 LEAST_SCORE = 0.5
 
 
