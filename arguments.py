@@ -218,6 +218,10 @@ def _inspect_command(sub: argparse._SubParsersAction) -> None:
                    help="list this many candidates, the most marker-like first (default: 12; "
                    "more when several markers look alike, e.g. a row of paper cups)")
     p.add_argument("--out", help="PNG to write (default: VIDEO_inspect.png beside the video)")
+    p.add_argument("--marker", action="append", metavar="NAME=template@X,Y,R",
+                   help="a template marker to try before tracking it (see `track`): how far "
+                        "its picture stands above its noise, the likest other place in the "
+                        "frame, and where it is found 0.2 s later; drawn in the PNG")
 
 
 def _check_command(sub: argparse._SubParsersAction) -> None:

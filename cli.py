@@ -367,6 +367,45 @@ def _span(start: tuple[float, str] | None, end: tuple[float, str] | None):
     return Span(lo, hi, unit)
 
 
+def _placed_templates(items: list[str], frame, later) -> list[tuple[str, float, float, float]]:
+    """Print what each template marker of ``items`` (``--marker NAME=template@X,Y,R``)
+    would follow in ``frame`` and find in ``later``; return them to be drawn."""
+    from .tracker.markers import parse_markers
+    from .tracker.template import PLAIN_CONTRAST, judge_placement, nearly_as_like
+
+    placed = []
+    for spec in parse_markers(items) if items else ():
+        if spec.template_radius_px is None:
+            raise CranktrackError(f"--marker {spec.name}: inspect lists colour and tone "
+                                  "markers itself; --marker here tries a template marker, "
+                                  "NAME=template@X,Y,R")
+        (x, y), r = spec.near_px, spec.template_radius_px
+        w, h = frame.size
+        try:
+            seen = judge_placement(frame.luma(0, 0, w, h), (x, y), r,
+                                   None if later is None else later.luma(0, 0, w, h))
+        except ValueError:
+            raise CranktrackError(f"--marker {spec.name}: its picture within {r:g} px of "
+                                  f"({x:g}, {y:g}) reaches past the {w}×{h} frame") from None
+        label = f"{spec.name}=template@{x:g},{y:g},{r:g}"
+        print(f"{label}: its picture stands {seen.contrast:.1f}× above its noise "
+              f"({'plain: nothing to follow' if seen.contrast < PLAIN_CONTRAST else 'enough'}"
+              f"; plain under {PLAIN_CONTRAST:g}×)")
+        rx, ry, rs = seen.rival
+        print(f"  the likest other place in this frame, ({rx:.0f}, {ry:.0f}), matches it "
+              f"{rs:.2f}" + (": nearly as well as the marker itself, so where it is lost it "
+                             "is sought only near where it was; a radius that takes in more "
+                             "of what only it shows makes it surer"
+                             if nearly_as_like(seen.template, rs) else ""))
+        if later is not None:
+            found = seen.later
+            print(f"  {later.t_s - frame.t_s:.3f} s later it is likest at "
+                  + ("no place (no match of 0.5 or more)" if found is None else
+                     f"({found.x:.1f}, {found.y:.1f}), matching {found.score:.2f}"))
+        placed.append((label, x, y, r))
+    return placed
+
+
 def cmd_inspect(args: argparse.Namespace) -> int:
     from .files import ensure_dir
     from .report.survey import write_survey_png
@@ -399,8 +438,9 @@ def cmd_inspect(args: argparse.Namespace) -> int:
         print(note)
     out = Path(args.out) if args.out else clip.with_name(
         (f"{clip.name}_{video.stem}" if sequence else video.stem) + "_inspect.png")
+    placed = _placed_templates(args.marker or [], frame, later)
     ensure_dir(out.parent)
-    write_survey_png(out, frame.rgb, table)
+    write_survey_png(out, frame.rgb, table, placed)
     if table.empty:
         print(f"no compact blob of one colour, white or black in frame {frame.index} "
               f"(t = {frame.t_s:.3f} s); try another --at")

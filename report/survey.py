@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import cv2
@@ -13,18 +14,34 @@ from ..errors import CranktrackError
 from ..files import write_text_atomic
 
 
-def survey_image(rgb: NDArray[np.uint8], table: pd.DataFrame) -> NDArray[np.uint8]:
+def survey_image(rgb: NDArray[np.uint8], table: pd.DataFrame,
+                 placed: Sequence[tuple[str, float, float, float]] = ()
+                 ) -> NDArray[np.uint8]:
     """The frame (RGB) with each blob of ``table`` (:func:`cranktrack.tracker.survey.survey`)
     circled and labelled with its ``--marker`` value, its radius (px) and whether it
     moves; disc-like ones in yellow, strips and streaks in cyan. A part of a larger
-    blob (``on``) is labelled with its ``m…`` alone. Each label lies inside the frame
-    and clear of those before it, beside its circle where there is room."""
+    blob (``on``) is labelled with its ``m…`` alone. ``placed``: template markers the
+    user placed (label, x, y, radius px), each drawn at its radius in magenta. Each
+    label lies inside the frame and clear of those before it, beside its circle where
+    there is room."""
     img = np.ascontiguousarray(rgb).copy()
     h, w = img.shape[:2]
     scale = max(w / 800.0, 0.4)
     font, size = cv2.FONT_HERSHEY_SIMPLEX, 0.45 * scale
     thick = max(2, int(3 * scale))
     taken: list[tuple[int, int, int, int]] = []
+    for label, x, y, radius in placed:
+        centre, ring, colour = (round(x), round(y)), max(round(radius), 1), (255, 0, 255)
+        cv2.circle(img, centre, ring, colour, max(1, int(scale)), cv2.LINE_AA)
+        cv2.drawMarker(img, centre, colour, cv2.MARKER_CROSS, max(5, ring // 4),
+                       max(1, int(scale)))
+        (tw, th), base = cv2.getTextSize(label, font, size, thick)
+        box = _label_box(centre, ring, tw, th + base, w, h, taken)
+        taken.append(box)
+        cv2.putText(img, label, (box[0], box[1] + th), font, size, (0, 0, 0), thick,
+                    cv2.LINE_AA)
+        cv2.putText(img, label, (box[0], box[1] + th), font, size, colour, max(1, int(scale)),
+                    cv2.LINE_AA)
     for _, r in table.iterrows():
         colour = (255, 220, 0) if r.disc_like else (0, 220, 255)
         centre = (round(r.x_px), round(r.y_px))
@@ -65,9 +82,11 @@ def _label_box(centre: tuple[int, int], ring: int, tw: int, th: int, w: int, h: 
     return x, y0, x + tw, y0 + th
 
 
-def write_survey_png(path: Path, rgb: NDArray[np.uint8], table: pd.DataFrame) -> Path:
+def write_survey_png(path: Path, rgb: NDArray[np.uint8], table: pd.DataFrame,
+                     placed: Sequence[tuple[str, float, float, float]] = ()) -> Path:
     """Write :func:`survey_image` as a PNG (atomically)."""
-    ok, data = cv2.imencode(".png", cv2.cvtColor(survey_image(rgb, table), cv2.COLOR_RGB2BGR))
+    ok, data = cv2.imencode(".png", cv2.cvtColor(survey_image(rgb, table, placed),
+                                                 cv2.COLOR_RGB2BGR))
     if not ok:
         raise CranktrackError(f"could not encode the survey picture for {path}")
     return write_text_atomic(path, data.tobytes())

@@ -197,3 +197,29 @@ def test_a_lost_template_marker_is_not_taken_on_its_twin_and_the_run_says_why(tm
     assert err.max() < 0.2, tab.loc[ok, ["frame", "ball_x_px", "ball_y_px"]][err >= 0.2]
     assert any("(30, 290)" in p and "looks almost as like" in p for p in result.problems), \
         result.problems
+
+
+def test_inspect_tries_a_template_marker_before_it_is_tracked(falls, tmp_path, capsys):
+    import re
+
+    from cranktrack.cli import main
+
+    folder, truth = falls[0]
+    assert main(["inspect", str(folder), "--fps", str(FPS), "--marker",
+                 f"ball=template@{X0},{Y0},{RADIUS}", "--out", str(tmp_path / "s.png")]) == 0
+    out = capsys.readouterr().out
+    line = next(s for s in out.splitlines() if s.startswith("ball=template@"))
+    assert float(re.search(r"stands ([\d.]+)×", line).group(1)) >= 3.0, line
+    # 0.2 s on (frame 20 at 100 fps), where the drawing has it: found by the whole frame.
+    later = re.search(r"later it is likest at \(([\d.]+), ([\d.]+)\), matching ([\d.]+)", out)
+    assert later, out
+    x, y, score = (float(v) for v in later.groups())
+    assert np.hypot(x - truth[20, 0], y - truth[20, 1]) < 0.2 and score > 0.9
+    assert (tmp_path / "s.png").stat().st_size > 1000
+    # A colour marker is inspect's own to list; a template off the frame is refused.
+    assert main(["inspect", str(folder), "--fps", str(FPS), "--marker", "ball=white@80,30",
+                 "--out", str(tmp_path / "s.png")]) == 1
+    assert main(["inspect", str(folder), "--fps", str(FPS), "--marker",
+                 "ball=template@5,30,13", "--out", str(tmp_path / "s.png")]) == 1
+    err = capsys.readouterr().err
+    assert "tries a template marker" in err and "reaches past the 200×360 frame" in err

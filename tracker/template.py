@@ -50,6 +50,11 @@ INSIDE_PX = 1.0
 #: drawn with 1.5 DN of noise had 1.2, the test's drawn steel ball 16, the free-fall
 #: clip's ball 44.
 PLAIN_CONTRAST = 3.0
+#: A match scoring this much under the marker's usual (the running mean of the matches
+#: taken) is taken for the marker partly hidden, or for something else
+#: (:func:`.track._locate_by_template`). On the free-fall clip the ball's score falls
+#: from 1 to 0.81 over 200 frames, by at most 0.008 in a frame.
+SCORE_DROP = 0.1
 #: A match below this normalised correlation is not the marker. On the free-fall
 #: clip the ball's matches fall from 1 to 0.81 as it drops 700 px under the lamps,
 #: and the likest other place in its first frame scores 0.63 (the run's later checks
@@ -148,6 +153,12 @@ def take_template(luma: NDArray, x0: int, y0: int, centre: tuple[float, float],
     mask = inside.astype(np.float32)
     return Template(picture, mask, anchor, float(radius), (float(centre[0]), float(centre[1])),
                     energy, noise_dn(picture, mask))
+
+
+def nearly_as_like(template: Template, score: float) -> bool:
+    """Does a match of ``score`` come within :data:`SCORE_DROP` of what the marker itself
+    is expected to score, its noise alone taken away (:attr:`Template.unlike`)?"""
+    return score >= 1.0 - template.unlike - SCORE_DROP
 
 
 def likest_other(luma: NDArray, template: Template) -> tuple[float, float, float]:
@@ -267,3 +278,35 @@ def search_box(template: Template, guess: tuple[float, float], reach: float,
     if x1 - x0 < 2 * half + 3 or y1 - y0 < 2 * half + 3:
         return None
     return x0, y0, x1, y1
+
+
+@dataclass(frozen=True)
+class Placement:
+    """What a template marker placed in one frame would follow (``cranktrack inspect
+    --marker NAME=template@X,Y,R``): how far its picture stands above its noise
+    (:attr:`Template.plain` under :data:`PLAIN_CONTRAST`), the likest other place in
+    that frame (x, y px, score), and its best match over the whole of a later frame
+    (None: no place scores :data:`LEAST_SCORE`, or no later frame)."""
+
+    template: Template
+    contrast: float
+    rival: tuple[float, float, float]
+    later: Match | None
+
+
+def judge_placement(luma: NDArray, centre: tuple[float, float], radius: float,
+                    later: NDArray | None = None) -> Placement:
+    """:class:`Placement` of a marker centred at ``centre`` with ``radius`` (px) in a
+    whole frame's luminance ``luma`` (DN), and its match in ``later``'s (DN).
+
+    Raises ValueError where its picture reaches past the frame."""
+    half = template_half(radius)
+    ix, iy = round(centre[0]), round(centre[1])
+    h, w = luma.shape[:2]
+    if not (half <= ix < w - half and half <= iy < h - half):
+        raise ValueError("the template's square does not lie on the frame")
+    template = take_template(luma, 0, 0, centre, radius)
+    spread = float(np.std(template.picture[template.mask > 0]))
+    contrast = spread / template.noise if template.noise > 0.0 else math.inf
+    found = None if later is None else match_template(later, 0, 0, template)
+    return Placement(template, contrast, likest_other(luma, template), found)

@@ -76,10 +76,12 @@ from .search import (
     window,
 )
 from .template import (
+    SCORE_DROP,
     Match,
     Template,
     likest_other,
     match_template,
+    nearly_as_like,
     search_box,
     take_template,
     template_half,
@@ -990,11 +992,6 @@ def _between_frames() -> Iterator[list[bool]]:
                       else previous)
 
 
-#: A template marker whose match scores this much under its usual (the running mean
-#: of the matches taken) is taken for partly hidden, or for something else. On the
-#: free-fall clip the ball's score falls from 1 to 0.81 over 200 frames, by at most
-#: 0.008 in a frame.
-TEMPLATE_DROP = 0.1
 #: A template marker missed for up to this many frames is matched over the whole frame
 #: in each; then at a colour marker's falling rate (:func:`.search.search_whole_frame`).
 #: The whole 384×800 free-fall frame takes 11 ms against 0.4 ms to decode it.
@@ -1035,7 +1032,7 @@ def _template_at_start(frame: Frame, state: MarkerState) -> Centre:
             "or the colour `cranktrack inspect` lists it with)")
     rival = likest_other(frame.luma(0, 0, w, h), state.template)
     state.template = replace(state.template, rival=rival)
-    if rival[2] >= 1.0 - state.template.unlike - TEMPLATE_DROP:
+    if nearly_as_like(state.template, rival[2]):
         state.notes.append(
             f"marker {spec.name}: another place in the first frame, ({rival[0]:.0f}, "
             f"{rival[1]:.0f}), looks almost as like its picture (a match of "
@@ -1058,8 +1055,8 @@ def _locate_by_template(frame: Frame, state: MarkerState, pred: tuple[float, flo
     around its prediction ``pred`` (px); over the whole frame while it has no velocity
     yet and in each of the first :data:`TEMPLATE_EVERY_FRAME_MISSED` frames it is
     missed, and then at the rate a lost colour marker's is searched
-    (:func:`.search.search_whole_frame`). A match scoring :data:`TEMPLATE_DROP` under
-    its usual is refused (``partly_covered``)."""
+    (:func:`.search.search_whole_frame`). A match scoring :data:`.template.SCORE_DROP`
+    under its usual is refused (``partly_covered``)."""
     if state.template is None:
         return _template_at_start(frame, state), "ok"
     template = state.template
@@ -1076,7 +1073,7 @@ def _locate_by_template(frame: Frame, state: MarkerState, pred: tuple[float, flo
         # With no velocity yet it may be anywhere near: a thrown ball moves radii a
         # frame. Not the whole frame: on Tracker's car clip that took a post 560 px away.
         reach = max(TEMPLATE_FIRST_REACH * template.radius, 40.0)
-    elif state.missed > 0 and template.rival[2] < 1.0 - template.unlike - TEMPLATE_DROP \
+    elif state.missed > 0 and not nearly_as_like(template, template.rival[2]) \
             and (state.missed <= TEMPLATE_EVERY_FRAME_MISSED
                  or search_whole_frame(state, pred)):
         # Missed, its motion is not carried past a few frames (KEEP_MOTION_MISSED), so
@@ -1112,7 +1109,7 @@ def _locate_by_template(frame: Frame, state: MarkerState, pred: tuple[float, flo
     # taken: its look may change slowly (turning, in another light), not at once.
     unlike = 1.0 - found.score
     usual = state.residual
-    if usual is not None and unlike > usual + TEMPLATE_DROP:
+    if usual is not None and unlike > usual + SCORE_DROP:
         # Suddenly far less like its picture: partly hidden, or something else. A drawn
         # ball with a sixth of its height behind a plate still scored 0.79 against its
         # usual 0.98, and was 0.45 px off; on the free-fall clip, with the ball gone
