@@ -73,12 +73,16 @@ def track(video: str | os.PathLike, markers: Mapping[str, str | float] | None = 
           roi: tuple[int, int, int, int] | None = None, window_s: float | None = None,
           fill_gaps: int = 0, on_frame: Callable[[int], None] | None = None,
           overwrite: bool = False, table_format: str = "csv",
-          rolling_shutter_ms: float = 0.0) -> RunResult:
+          rolling_shutter_ms: float = 0.0, fps: float | None = None) -> RunResult:
     """Track ``video`` into a run folder and return the run (``.tracks``, ``.kinematics``).
 
     ``markers`` maps names to colours as ``--marker`` takes them (``{"A": "green"}``,
     ``{"ball": "white"}``, a hue in degrees, ``"#RRGGBB"``, with a shape and a place:
-    ``{"B": "green:blob@423,111"}`` for an LED; default A green, B red, C blue).
+    ``{"B": "green:blob@423,111"}`` for an LED; ``{"ball": "template@161,53,35"}`` for
+    a marker with no colour of its own, followed by its picture; default A green, B
+    red, C blue). ``fps`` is the command's ``--fps``: the rate of a folder of pictures,
+    or the rate a clip was taken at where it plays at another (a high-speed camera's
+    1000 fps stored to play at 30).
     ``known_length`` ("A", "C", mm) sets the scale, or ``calibration`` names a plane
     calibration file; without either the tracks stay in pixels and there are no
     kinematics. ``out`` is the run folder (default: ``<video name>_run`` beside the
@@ -103,7 +107,14 @@ def track(video: str | os.PathLike, markers: Mapping[str, str | float] | None = 
     plane = _plane(calibration)
     known_length = _known_length(known_length)
     folder = Path(out) if out is not None else video.with_name(f"{video.stem}_run")
-    return track_run(video, folder, known_length, _specs(markers), window_s=window_s,
+    if fps is not None:
+        try:
+            fps = float(fps)
+        except (TypeError, ValueError):
+            fps = float("nan")
+        if not (np.isfinite(fps) and fps > 0):
+            raise CranktrackError("fps must be a positive number of frames a second")
+    return track_run(video, folder, known_length, _specs(markers), fps=fps, window_s=window_s,
                      fill_gaps_frames=fill_gaps, calibration=plane, span=span,
                      roi=None if roi is None else Roi(*roi), on_frame=on_frame,
                      overwrite=overwrite, table_format=table_format,

@@ -223,3 +223,21 @@ def test_inspect_tries_a_template_marker_before_it_is_tracked(falls, tmp_path, c
                  "ball=template@5,30,13", "--out", str(tmp_path / "s.png")]) == 1
     err = capsys.readouterr().err
     assert "tries a template marker" in err and "reaches past the 200×360 frame" in err
+
+
+def test_the_python_api_tracks_a_template_marker_at_the_rate_given(falls, tmp_path):
+    import cranktrack as ct
+
+    folder, truth = falls[0]
+    run = ct.track(folder, markers={"ball": f"template@{X0},{Y0},{RADIUS}"}, fps=FPS,
+                   out=tmp_path / "run")
+    tab = run.tracks
+    assert tab["t_s"].iloc[10] == pytest.approx(10 / FPS)
+    ok = tab["ball_ok"].to_numpy(bool)
+    assert ok[:60].all()
+    err = tab[["ball_x_px", "ball_y_px"]].to_numpy()[ok] - truth[ok]
+    assert np.abs(err).max() < 0.1
+    for bad in (0, -5.0, float("nan"), "fast"):
+        with pytest.raises(CranktrackError, match="fps must be a positive number"):
+            ct.track(folder, markers={"ball": f"template@{X0},{Y0},{RADIUS}"}, fps=bad,
+                     out=tmp_path / "bad")
