@@ -241,3 +241,29 @@ def test_the_python_api_tracks_a_template_marker_at_the_rate_given(falls, tmp_pa
         with pytest.raises(CranktrackError, match="fps must be a positive number"):
             ct.track(folder, markers={"ball": f"template@{X0},{Y0},{RADIUS}"}, fps=bad,
                      out=tmp_path / "bad")
+
+
+def test_a_monochrome_camera_s_video_is_followed_by_a_template_marker(tmp_path):
+    import fractions
+
+    import av
+
+    # Stored without colour (gray, as monochrome and high-speed cameras record): hue
+    # markers are refused there, a template marker is what it is for.
+    truth, pictures = frames(30, seed=5)
+    video = tmp_path / "mono.mkv"
+    with av.open(str(video), "w") as out:
+        stream = out.add_stream("ffv1", rate=int(FPS))
+        stream.width, stream.height, stream.pix_fmt = SIZE[0], SIZE[1], "gray"
+        for k, picture in enumerate(pictures):
+            frame = av.VideoFrame.from_ndarray(picture, format="gray")
+            frame.pts, frame.time_base = k, fractions.Fraction(1, int(FPS))
+            out.mux(stream.encode(frame))
+        out.mux(stream.encode())
+    source = open_frames(video)
+    assert not source.stores_colour
+    result = track(source, parse_markers([f"ball=template@{X0},{Y0},{RADIUS}"]))
+    assert not any("colour" in p for p in result.problems), result.problems
+    tab = result.tracks
+    assert tab["ball_ok"].all()
+    assert np.abs(tab[["ball_x_px", "ball_y_px"]].to_numpy() - truth).max() < 0.1
