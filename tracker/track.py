@@ -1041,8 +1041,8 @@ def _template_at_start(frame: Frame, state: MarkerState) -> Centre:
     # How unlike its picture a match usually is starts from what the noise alone
     # gives: a first match far worse is refused like any sudden drop. Without it, the
     # first match set the usual: on Tracker's car clip (a streaked car, 70 px a frame)
-    # that was a wrong place 20 px off, and then a post 500 px away was taken in 46
-    # frames.
+    # that was a place 51 px behind the car, and the fixes that followed were all
+    # false, 47 of them (the last 42 on a post 490 px away).
     state.residual = state.template.unlike
     # The place given is where the picture was taken: its σ is the picture's own noise
     # over its gradients (matched against itself it would leave nothing, and say 0).
@@ -1052,11 +1052,14 @@ def _template_at_start(frame: Frame, state: MarkerState) -> Centre:
 def _locate_by_template(frame: Frame, state: MarkerState, pred: tuple[float, float] | None
                         ) -> tuple[Centre | None, str]:
     """A template marker's centre in ``frame`` and its status: its picture matched
-    around its prediction ``pred`` (px); over the whole frame while it has no velocity
-    yet and in each of the first :data:`TEMPLATE_EVERY_FRAME_MISSED` frames it is
-    missed, and then at the rate a lost colour marker's is searched
-    (:func:`.search.search_whole_frame`). A match scoring :data:`.template.SCORE_DROP`
-    under its usual is refused (``partly_covered``)."""
+    around its prediction ``pred`` (px); within :data:`TEMPLATE_FIRST_REACH` radii of
+    its place while it has no velocity yet; over the whole frame in each of the first
+    :data:`TEMPLATE_EVERY_FRAME_MISSED` frames it is missed, and then at the rate a lost
+    colour marker's is searched (:func:`.search.search_whole_frame`), unless another
+    place in the first frame looks nearly as like it (:func:`.template.nearly_as_like`).
+    A match scoring :data:`.template.SCORE_DROP` under its usual is refused
+    (``partly_covered``), and one found far off no likelier than that other place
+    (``rejected``)."""
     if state.template is None:
         return _template_at_start(frame, state), "ok"
     template = state.template
