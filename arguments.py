@@ -400,6 +400,13 @@ def _batch_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("pattern", help="quoted glob of videos, e.g. 'recordings/*.mp4'")
     p.add_argument("--out", required=True, help="folder for the run folders and summary.csv")
     p.add_argument("--known-length", metavar="A-C=MM", help="scale for every video")
+    p.add_argument("--marker", action="append",
+                   metavar="NAME=COLOUR[:SHAPE][@X,Y] | NAME=template@X,Y,R",
+                   help="the markers of every video, as for `track` (default: A=green B=red "
+                        "C=blue)")
+    p.add_argument("--fps", type=_positive, metavar="FPS",
+                   help="the rate every video was taken at, as for `track` (default: each "
+                        "video's own clock)")
     p.add_argument("--rolling-shutter-ms", type=_nonnegative, default=0.0, metavar="MS",
                    help="the camera's readout from its top row to its bottom row, as in "
                         "`track` (default 0: all rows at once)")

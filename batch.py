@@ -14,11 +14,15 @@ from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pandas as pd
 
 from .errors import CranktrackError, RunInterrupted
 from .files import ensure_dir, write_csv_atomic
+
+if TYPE_CHECKING:
+    from .tracker.markers import MarkerSpec
 
 
 def find_videos(pattern: str) -> list[Path]:
@@ -42,20 +46,26 @@ def _folder_for(video: Path, out: Path, taken: set[str]) -> Path:
 
 
 def process_one(video: str, folder: str, known_length: tuple[str, str, float] | None,
-                compare: bool, resume: bool = False, readout_s: float = 0.0) -> dict:
+                compare: bool, resume: bool = False, readout_s: float = 0.0,
+                specs: tuple[MarkerSpec, ...] | None = None,
+                fps: float | None = None) -> dict:
     """Track (and optionally compare) one video; never raises for bad input.
 
     Runs in a worker process or on a Dask worker, so it imports what it needs.
     With ``resume``, a run interrupted in ``folder`` continues where it stopped.
     ``readout_s`` is the camera's rolling-shutter readout (s, top row to bottom row).
+    ``specs`` are the markers to track (None: the crank-slider's A, B and C), ``fps``
+    the rate the video was taken at (`track`'s ``--fps``; None: its own clock).
     """
     from .pipeline import compare_run, track_run
     from .run_folder import TRACKER_STATE
+    from .tracker.markers import DEFAULT_MARKERS
 
     row: dict = {"video": video, "run": folder, "status": "ok", "message": ""}
     try:
         resume = resume and (Path(folder) / TRACKER_STATE).exists()
-        run = track_run(video, folder, known_length, resume=resume, readout_s=readout_s)
+        run = track_run(video, folder, known_length, specs or DEFAULT_MARKERS, fps=fps,
+                        resume=resume, readout_s=readout_s)
         t = run.tracks
         row["frames"] = len(t)
         for m in [c[:-3] for c in t.columns if c.endswith("_ok")]:
@@ -89,6 +99,8 @@ def run_batch(
     on_start: Callable[[int], None] | None = None,
     resume: bool = False,
     readout_s: float = 0.0,
+    specs: tuple[MarkerSpec, ...] | None = None,
+    fps: float | None = None,
 ) -> pd.DataFrame:
     """Process every video matching ``pattern``; write and return ``summary.csv``.
 
@@ -103,6 +115,8 @@ def run_batch(
     only the rest, each continuing from where it was interrupted. ``readout_s`` (s) is
     the rolling-shutter readout of the one camera that filmed them all (`track`'s
     ``--rolling-shutter-ms``); a video whose frame it does not fit in fails alone.
+    ``specs`` are the markers tracked in every video (`track`'s ``--marker``, parsed;
+    None: A, B and C), ``fps`` the rate they were all taken at (``--fps``).
 
     The local processes start afresh and import the calling script again, so from a
     script call it under ``if __name__ == "__main__":``. A worker that stops abruptly
@@ -114,7 +128,7 @@ def run_batch(
     out = ensure_dir(out_dir)
     taken: set[str] = set()
     tasks = [(str(v), str(_folder_for(v, out, taken)), known_length, compare, resume,
-              readout_s) for v in videos]
+              readout_s, specs, fps) for v in videos]
     rows = _finished(out / SUMMARY, {t[0] for t in tasks}) if resume else []
     done = {r["video"] for r in rows}
     tasks = [t for t in tasks if t[0] not in done]

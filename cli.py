@@ -819,8 +819,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 def cmd_batch(args: argparse.Namespace) -> int:
     from .batch import run_batch
     from .calibration.known_length import parse_known_length
+    from .tracker.markers import parse_markers
 
     known = parse_known_length(args.known_length) if args.known_length else None
+    # Parsed here, so that a --marker mistyped is said once, before any video is opened.
+    specs = parse_markers(args.marker) if args.marker else None
 
     with _progress("batch", unit="video") as bar:
         def start(n: int) -> None:
@@ -834,7 +837,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
 
         summary = run_batch(args.pattern, args.out, known, args.compare, args.jobs,
                             args.scheduler, on_done=done, resume=args.resume, on_start=start,
-                            readout_s=args.rolling_shutter_ms / 1e3)
+                            readout_s=args.rolling_shutter_ms / 1e3, specs=specs,
+                            fps=args.fps)
     failed = int((summary["status"] != "ok").sum())
     print(f"{len(summary) - failed} of {len(summary)} videos done; summary in "
           f"{Path(args.out) / 'summary.csv'}")

@@ -8,6 +8,7 @@ truth: where the ball's middle was in each frame, and the acceleration it fell w
 
 import cv2
 import numpy as np
+import pandas as pd
 import pytest
 
 from cranktrack.errors import CranktrackError
@@ -243,27 +244,49 @@ def test_the_python_api_tracks_a_template_marker_at_the_rate_given(falls, tmp_pa
                      out=tmp_path / "bad")
 
 
-def test_a_monochrome_camera_s_video_is_followed_by_a_template_marker(tmp_path):
+def gray_video(path, pictures, rate: int) -> None:
+    """Write ``pictures`` (grey, uint8) as a lossless video stored without colour (FFV1,
+    ``gray``: as monochrome and high-speed cameras record) playing at ``rate`` a second."""
     import fractions
 
     import av
 
-    # Stored without colour (gray, as monochrome and high-speed cameras record): hue
-    # markers are refused there, a template marker is what it is for.
-    truth, pictures = frames(30, seed=5)
-    video = tmp_path / "mono.mkv"
-    with av.open(str(video), "w") as out:
-        stream = out.add_stream("ffv1", rate=int(FPS))
+    with av.open(str(path), "w") as out:
+        stream = out.add_stream("ffv1", rate=rate)
         stream.width, stream.height, stream.pix_fmt = SIZE[0], SIZE[1], "gray"
         for k, picture in enumerate(pictures):
             frame = av.VideoFrame.from_ndarray(picture, format="gray")
-            frame.pts, frame.time_base = k, fractions.Fraction(1, int(FPS))
+            frame.pts, frame.time_base = k, fractions.Fraction(1, rate)
             out.mux(stream.encode(frame))
         out.mux(stream.encode())
+
+
+def test_a_monochrome_camera_s_video_is_followed_by_a_template_marker(tmp_path):
+    # Stored without colour: hue markers are refused there, a template marker is what
+    # it is for.
+    truth, pictures = frames(30, seed=5)
+    video = tmp_path / "mono.mkv"
+    gray_video(video, pictures, int(FPS))
     source = open_frames(video)
     assert not source.stores_colour
     result = track(source, parse_markers([f"ball=template@{X0},{Y0},{RADIUS}"]))
     assert not any("colour" in p for p in result.problems), result.problems
     tab = result.tracks
     assert tab["ball_ok"].all()
+    assert np.abs(tab[["ball_x_px", "ball_y_px"]].to_numpy() - truth).max() < 0.1
+
+
+def test_a_batch_tracks_the_markers_given_at_the_rate_given(tmp_path):
+    from cranktrack.batch import run_batch
+
+    # Two high-speed clips stored to play at 25 a second, taken at 100.
+    truth, pictures = frames(20, seed=6)
+    for name in ("one", "two"):
+        gray_video(tmp_path / f"{name}.mkv", pictures, 25)
+    summary = run_batch(str(tmp_path / "*.mkv"), tmp_path / "out", jobs=1, fps=FPS,
+                        specs=parse_markers([f"ball=template@{X0},{Y0},{RADIUS}"]))
+    assert list(summary["status"]) == ["ok", "ok"], summary["message"].tolist()
+    assert list(summary["ball_found_pct"]) == [100.0, 100.0]
+    tab = pd.read_csv(tmp_path / "out" / "one" / "tracks.csv")
+    assert tab["t_s"].iloc[10] == pytest.approx(10 / FPS)
     assert np.abs(tab[["ball_x_px", "ball_y_px"]].to_numpy() - truth).max() < 0.1
