@@ -16,6 +16,7 @@ import sys
 from collections.abc import Callable, Iterable, Sequence
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -28,6 +29,9 @@ from .report.console import (
     format_table,
     reproducibility_text,
 )
+
+if TYPE_CHECKING:  # the command imports its tracker lazily: start-up stays short
+    from .tracker.video import Frame
 
 #: Where `cranktrack demo` writes when given no --out: under the folder it is run from.
 DEMO_FOLDER = "demo-output"
@@ -367,11 +371,17 @@ def _span(start: tuple[float, str] | None, end: tuple[float, str] | None):
     return Span(lo, hi, unit)
 
 
-def _placed_templates(items: list[str], frame, later) -> list[tuple[str, float, float, float]]:
+def _placed_templates(items: list[str], frame: Frame, later: Frame | None
+                      ) -> list[tuple[str, float, float, float]]:
     """Print what each template marker of ``items`` (``--marker NAME=template@X,Y,R``)
     would follow in ``frame`` and find in ``later``; return them to be drawn."""
     from .tracker.markers import parse_markers
-    from .tracker.template import PLAIN_CONTRAST, judge_placement, nearly_as_like
+    from .tracker.template import (
+        LEAST_SCORE,
+        PLAIN_CONTRAST,
+        judge_placement,
+        nearly_as_like,
+    )
 
     placed = []
     for spec in parse_markers(items) if items else ():
@@ -400,7 +410,7 @@ def _placed_templates(items: list[str], frame, later) -> list[tuple[str, float, 
         if later is not None:
             found = seen.later
             print(f"  {later.t_s - frame.t_s:.3f} s later it is likest at "
-                  + ("no place (no match of 0.5 or more)" if found is None else
+                  + (f"no place (no match of {LEAST_SCORE:g} or more)" if found is None else
                      f"({found.x:.1f}, {found.y:.1f}), matching {found.score:.2f}"))
         placed.append((label, x, y, r))
     return placed
