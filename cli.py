@@ -398,8 +398,9 @@ def _placed_templates(items: list[str], frame: Frame, later: Frame | None
             raise CranktrackError(f"--marker {spec.name}: its picture within {r:g} px of "
                                   f"({x:g}, {y:g}) reaches past the {w}×{h} frame") from None
         label = f"{spec.name}=template@{x:g},{y:g},{r:g}"
-        print(f"{label}: its picture stands {seen.contrast:.1f}× above its noise "
-              f"({'plain: nothing to follow' if seen.contrast < PLAIN_CONTRAST else 'enough'}"
+        contrast = seen.template.contrast
+        print(f"{label}: its picture stands {contrast:.1f}× above its noise "
+              f"({'plain: nothing to follow' if seen.template.plain else 'enough'}"
               f"; plain under {PLAIN_CONTRAST:g}×)")
         rx, ry, rs = seen.rival
         print(f"  the likest other place in this frame, ({rx:.0f}, {ry:.0f}), matches it "

@@ -15,7 +15,10 @@ Every figure it is checked against is made here, apart from the tracker:
   against the centimetre ticks' period in a column only they reach;
 - **g**, from a parabola through the fall, against 9.80 m/s² (#20's aim: within 2 %);
 - **the ball's outline**, a circle fitted to where each frame's brightness changes
-  most along rays across its rim: a second centre that no highlight moves;
+  most along rays across its rim: a second centre that no highlight moves. Its rays
+  are laid about our fix (the rim is sought within 8 px of the radius from it), so
+  it shares that starting point with the tracker, not its answer: seeded from its own
+  earlier outlines instead, it lost the ball within the fall;
 - **the student's own way of tracking it**, OpenCV's MOSSE tracker
   (``bench/mosse_peer.py``, under a Python with opencv-contrib, ``--mosse-python``).
 
@@ -124,8 +127,8 @@ def mosse_track(video: Path, python: Path, x: float, y: float, radius: float
     return pd.read_csv(StringIO(out))
 
 
-def parabola(t: NDArray, y: NDArray) -> tuple[float, NDArray]:
-    """The acceleration (px/s²) of a parabola through ``y`` (px) at ``t`` (s), and what
-    it leaves (px)."""
-    coef = np.polyfit(t, y, 2)
-    return 2.0 * float(coef[0]), y - np.polyval(coef, t)
+def parabola(t: NDArray, y: NDArray) -> tuple[float, NDArray, np.poly1d]:
+    """The acceleration (px/s²) of a parabola through ``y`` (px) at ``t`` (s), what it
+    leaves (px), and the parabola itself (px at any t)."""
+    curve = np.poly1d(np.polyfit(t, y, 2))
+    return 2.0 * float(curve.coeffs[0]), y - curve(t), curve

@@ -1144,11 +1144,10 @@ def run_free_fall(repo: Path, mosse_python: Path | None, card: Scorecard) -> Non
     xy = tab[[f"{ball}_x_px", f"{ball}_y_px"]].to_numpy(float)
     sigma = tab[f"{ball}_sigma_px"].to_numpy(float)
     falling = ok & (tab["frame"].to_numpy() >= free_fall.FALLING_FROM)
-    accel, left = free_fall.parabola(t[falling], xy[falling, 1])
+    accel, left, fall = free_fall.parabola(t[falling], xy[falling, 1])
     # In view: the whole ball on the frame, by the parabola (the last frames run past
     # the bottom edge).
-    coef = np.polyfit(t[falling], xy[falling, 1], 2)
-    whole = np.polyval(coef, t) + radius < height - 1
+    whole = fall(t) + radius < height - 1
     print(f"\n{free_fall.CLIP} (a student's steel ball falling past a tape measure, "
           f"{len(tab)} frames at {free_fall.FPS:.0f} fps): `--fps {free_fall.FPS:.0f} "
           f"--marker {free_fall.MARKER}`")
@@ -1183,11 +1182,12 @@ def run_free_fall(repo: Path, mosse_python: Path | None, card: Scorecard) -> Non
              "50–90 %", 0.5 <= covered <= 0.9)
     rim = np.array([free_fall.rim_circle(frames[k], *xy[k], radius) for k in
                     np.flatnonzero(falling & whole)])
-    rim_accel, rim_left = free_fall.parabola(t[falling & whole], rim[:, 1])
+    rim_accel, rim_left, _ = free_fall.parabola(t[falling & whole], rim[:, 1])
     drift = np.polyfit(t[falling & whole], xy[falling & whole, 0], 1)[0]
     rim_drift = np.polyfit(t[falling & whole], rim[:, 0], 1)[0]
-    print(f"  the ball's outline (a circle fitted to its rim here, {np.median(rim[:, 2]):.1f} "
-          f"px in radius): g = {rim_accel / mm / 1000.0:.3f} m/s², its parabola leaving "
+    print(f"  the ball's outline (a circle fitted to its rim here, sought about our fixes, "
+          f"{np.median(rim[:, 2]):.1f} px in radius): g = {rim_accel / mm / 1000.0:.3f} m/s², "
+          "its parabola leaving "
           f"{np.sqrt(np.mean(rim_left**2)):.2f} px RMS; across the fall it moves "
           f"{drift * np.ptp(t[falling & whole]):+.2f} px in x by our track and "
           f"{rim_drift * np.ptp(t[falling & whole]):+.2f} px by its outline")
@@ -1200,7 +1200,7 @@ def run_free_fall(repo: Path, mosse_python: Path | None, card: Scorecard) -> Non
             offset = diff.mean(axis=0)
             rms_peer = float(np.sqrt(np.mean(np.sum((diff - offset) ** 2, axis=1))))
             sel = [k for k in common if falling[k]]
-            peer_accel, peer_left = free_fall.parabola(
+            peer_accel, peer_left, _ = free_fall.parabola(
                 t[sel], theirs.loc[sel, "y_px"].to_numpy(float))
             print(f"  the student's MOSSE tracker (whole pixels) against ours on the "
                   f"{len(common)} frames both hold: RMS {rms_peer:.2f} px after removing the "

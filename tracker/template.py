@@ -80,23 +80,29 @@ class Template:
     energy: float
     #: The picture's noise (DN, :func:`noise_dn`).
     noise: float
+    #: The standard deviation of its grey levels over the mask (DN): what it shows.
+    spread: float
     #: The likest other place in the frame it was taken from (x, y px, score): how
     #: like the marker something else in the scene looks (:func:`likest_other`).
     rival: tuple[float, float, float] = (np.nan, np.nan, -1.0)
 
     @property
+    def contrast(self) -> float:
+        """How many times its noise the picture's spread is."""
+        return self.spread / self.noise if self.noise > 0.0 else math.inf
+
+    @property
     def plain(self) -> bool:
         """Does the picture hold little more than its noise (its spread under
         :data:`PLAIN_CONTRAST` times the noise), so that there is nothing to follow?"""
-        return float(np.std(self.picture[self.mask > 0])) < PLAIN_CONTRAST * self.noise
+        return self.contrast < PLAIN_CONTRAST
 
     @property
     def unlike(self) -> float:
         """How unlike its picture a later match of the marker is expected to be, from
         the noise alone (1 − the correlation of two noisy copies): the noise's share
         of the picture's variance."""
-        spread = float(np.var(self.picture[self.mask > 0]))
-        return min(self.noise**2 / spread, 1.0) if spread > 0.0 else 1.0
+        return min(self.noise**2 / self.spread**2, 1.0) if self.spread > 0.0 else 1.0
 
     @property
     def sigma(self) -> float:
@@ -152,7 +158,15 @@ def take_template(luma: NDArray, x0: int, y0: int, centre: tuple[float, float],
     energy = min(float(np.sum(gx[inside]**2)), float(np.sum(gy[inside]**2)))
     mask = inside.astype(np.float32)
     return Template(picture, mask, anchor, float(radius), (float(centre[0]), float(centre[1])),
-                    energy, noise_dn(picture, mask))
+                    energy, noise_dn(picture, mask), float(np.std(picture[inside])))
+
+
+def fits_on(centre: tuple[float, float], radius: float, size: tuple[int, int]) -> bool:
+    """Does the template of a marker at ``centre`` with ``radius`` (px) lie wholly on a
+    frame of ``size`` (width, height px)?"""
+    half = template_half(radius)
+    ix, iy = round(centre[0]), round(centre[1])
+    return half <= ix < size[0] - half and half <= iy < size[1] - half
 
 
 def nearly_as_like(template: Template, score: float) -> bool:
@@ -283,13 +297,12 @@ def search_box(template: Template, guess: tuple[float, float], reach: float,
 @dataclass(frozen=True)
 class Placement:
     """What a template marker placed in one frame would follow (``cranktrack inspect
-    --marker NAME=template@X,Y,R``): how far its picture stands above its noise
-    (:attr:`Template.plain` under :data:`PLAIN_CONTRAST`), the likest other place in
-    that frame (x, y px, score), and its best match over the whole of a later frame
-    (None: no place scores :data:`LEAST_SCORE`, or no later frame)."""
+    --marker NAME=template@X,Y,R``): its picture (how far it stands above its noise is
+    :attr:`Template.contrast`), the likest other place in that frame (x, y px, score),
+    and its best match over the whole of a later frame (None: no place scores
+    :data:`LEAST_SCORE`, or no later frame)."""
 
     template: Template
-    contrast: float
     rival: tuple[float, float, float]
     later: Match | None
 
@@ -300,13 +313,8 @@ def judge_placement(luma: NDArray, centre: tuple[float, float], radius: float,
     whole frame's luminance ``luma`` (DN), and its match in ``later``'s (DN).
 
     Raises ValueError where its picture reaches past the frame."""
-    half = template_half(radius)
-    ix, iy = round(centre[0]), round(centre[1])
-    h, w = luma.shape[:2]
-    if not (half <= ix < w - half and half <= iy < h - half):
+    if not fits_on(centre, radius, (luma.shape[1], luma.shape[0])):
         raise ValueError("the template's square does not lie on the frame")
     template = take_template(luma, 0, 0, centre, radius)
-    spread = float(np.std(template.picture[template.mask > 0]))
-    contrast = spread / template.noise if template.noise > 0.0 else math.inf
     found = None if later is None else match_template(later, 0, 0, template)
-    return Placement(template, contrast, likest_other(luma, template), found)
+    return Placement(template, likest_other(luma, template), found)

@@ -79,6 +79,7 @@ from .template import (
     SCORE_DROP,
     Match,
     Template,
+    fits_on,
     likest_other,
     match_template,
     nearly_as_like,
@@ -1012,14 +1013,13 @@ def _template_at_start(frame: Frame, state: MarkerState) -> Centre:
     spec = state.spec
     x, y = spec.near_px
     r = spec.template_radius_px
-    half = template_half(r)
     w, h = frame.size
-    ix, iy = round(x), round(y)
-    if not (half <= ix < w - half and half <= iy < h - half):
+    if not fits_on((x, y), r, frame.size):
         raise CranktrackError(
             f"marker {spec.name} is placed at ({x:g}, {y:g}) with a radius of {r:g} px, so "
             f"its picture reaches past the {w}×{h} frame; place it where it lies whole, or "
             "start tracking where it does (--start)")
+    half, ix, iy = template_half(r), round(x), round(y)
     box = (ix - half, iy - half, ix + half + 1, iy + half + 1)
     state.template = take_template(frame.luma(*box), box[0], box[1], (x, y), r)
     state.radius = r
