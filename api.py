@@ -26,7 +26,7 @@ import pandas as pd
 
 from .errors import CranktrackError
 from .pipeline import RunResult, fit_run, measure_run, track_run
-from .run_folder import FIT_DIR, FIT_TABLE, KINEMATICS, TRACKS, run_folder
+from .run_folder import FIT_DIR, FIT_TABLE, KINEMATICS, MOTION, TRACKS, run_folder
 
 if TYPE_CHECKING:
     from .loop.result import LoopResult
@@ -51,6 +51,15 @@ def _plane(calibration: str | os.PathLike | None):
     return load_calibration(calibration)
 
 
+def _ruler(ruler: str | None):
+    """``ruler`` ("X1,Y1,X2,Y2=MM", as ``--ruler`` takes it) parsed, or None."""
+    if ruler is None:
+        return None
+    from .calibration.ruler import parse_ruler
+
+    return parse_ruler(str(ruler))
+
+
 def _known_length(known_length: tuple[str, str, float] | None
                   ) -> tuple[str, str, float] | None:
     """``known_length`` ("A", "C", mm) checked: the mm a positive, finite number."""
@@ -73,7 +82,8 @@ def track(video: str | os.PathLike, markers: Mapping[str, str | float] | None = 
           roi: tuple[int, int, int, int] | None = None, window_s: float | None = None,
           fill_gaps: int = 0, on_frame: Callable[[int], None] | None = None,
           overwrite: bool = False, table_format: str = "csv",
-          rolling_shutter_ms: float = 0.0, fps: float | None = None) -> RunResult:
+          rolling_shutter_ms: float = 0.0, fps: float | None = None,
+          ruler: str | None = None) -> RunResult:
     """Track ``video`` into a run folder and return the run (``.tracks``, ``.kinematics``).
 
     ``markers`` maps names to colours as ``--marker`` takes them (``{"A": "green"}``,
@@ -85,7 +95,11 @@ def track(video: str | os.PathLike, markers: Mapping[str, str | float] | None = 
     1000 fps stored to play at 30).
     ``known_length`` ("A", "C", mm) sets the scale, or ``calibration`` names a plane
     calibration file; without either the tracks stay in pixels and there are no
-    kinematics. ``out`` is the run folder (default: ``<video name>_run`` beside the
+    kinematics. ``ruler`` ("X1,Y1,X2,Y2=MM": two points of the frame in px, a known
+    length apart) sets the scale for any markers instead; a run with a scale has each
+    marker's velocity and acceleration in ``.motion`` (mm/s, mm/s²), and the
+    crank-slider's θ, ω and v_B in ``.kinematics`` when it tracked A and B. ``out`` is
+    the run folder (default: ``<video name>_run`` beside the
     video). ``start_s``/``end_s`` (s), ``roi`` (x, y, w, h px), ``window_s`` and
     ``fill_gaps`` (frames) are the command's ``--start``, ``--end``, ``--roi``,
     ``--window-s`` and ``--fill-gaps``; ``on_frame(index)`` is called after each frame.
@@ -118,17 +132,18 @@ def track(video: str | os.PathLike, markers: Mapping[str, str | float] | None = 
                      fill_gaps_frames=fill_gaps, calibration=plane, span=span,
                      roi=None if roi is None else Roi(*roi), on_frame=on_frame,
                      overwrite=overwrite, table_format=table_format,
-                     readout_s=float(rolling_shutter_ms) / 1e3)
+                     readout_s=float(rolling_shutter_ms) / 1e3, ruler=_ruler(ruler))
 
 
 def measure(run: RunResult | str | os.PathLike,
             known_length: tuple[str, str, float] | None = None,
             calibration: str | os.PathLike | None = None,
             rolling_shutter_ms: float | None = None,
-            window_s: float | None = None) -> RunResult:
+            window_s: float | None = None, ruler: str | None = None) -> RunResult:
     """A run's kinematics measured again from its tracks, without tracking the video
     again: what ``cranktrack measure`` does. ``known_length`` ("A", "C", mm) or
-    ``calibration`` (a plane calibration file) gives a new scale (default: the run's
+    ``calibration`` (a plane calibration file) or ``ruler`` ("X1,Y1,X2,Y2=MM") gives a
+    new scale (default: the run's
     own calibration.json); ``rolling_shutter_ms`` a new readout (None keeps the run's,
     0 takes it off); ``window_s`` the differentiator's window. The run folder's tables,
     run.json and report are rewritten.
@@ -138,7 +153,7 @@ def measure(run: RunResult | str | os.PathLike,
     folder = run.folder if isinstance(run, RunResult) else Path(run)
     readout_s = None if rolling_shutter_ms is None else float(rolling_shutter_ms) / 1e3
     return measure_run(folder, _known_length(known_length), _plane(calibration), window_s,
-                       readout_s)
+                       readout_s, ruler=_ruler(ruler))
 
 
 def open_run(folder: str | os.PathLike) -> RunResult:
@@ -153,7 +168,8 @@ def open_run(folder: str | os.PathLike) -> RunResult:
         raise CranktrackError(f"{rf.path / TRACKS} cannot be read ({e})") from None
     kinematics = rf.read_kinematics() if (rf.path / KINEMATICS).exists() else None
     cal = load_calibration(rf.path / CALIBRATION) if (rf.path / CALIBRATION).exists() else None
-    return RunResult(rf.path, tracks, kinematics, cal)
+    motion = pd.read_csv(rf.path / MOTION) if (rf.path / MOTION).exists() else None
+    return RunResult(rf.path, tracks, kinematics, cal, motion=motion)
 
 
 @dataclass(frozen=True)

@@ -129,6 +129,11 @@ def _add_window_option(p: argparse.ArgumentParser) -> None:
 def _add_track_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--known-length", metavar="A-C=MM",
                    help="a constant marker distance that sets the scale, e.g. A-C=160.8")
+    p.add_argument("--ruler", metavar="X1,Y1,X2,Y2=MM",
+                   help="two points of the frame (px) a known length apart in the plane of "
+                        "motion, e.g. a metre stick's ends, 120,40,620,40=1000: sets the "
+                        "scale for any markers, which then get their velocity and "
+                        "acceleration in motion.csv")
     _add_window_option(p)
 
 

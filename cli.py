@@ -234,10 +234,12 @@ def _synth_board(args: argparse.Namespace) -> int:
 
 def _track(args: argparse.Namespace, video: Path, out: Path):
     from .calibration.known_length import parse_known_length
+    from .calibration.ruler import parse_ruler
     from .pipeline import track_run
     from .tracker.markers import DEFAULT_MARKERS, parse_markers
 
     known = parse_known_length(args.known_length) if args.known_length else None
+    ruler = parse_ruler(args.ruler) if getattr(args, "ruler", None) else None
     plane = None
     if getattr(args, "calibration", None):
         from .calibration.file import load_calibration
@@ -261,7 +263,7 @@ def _track(args: argparse.Namespace, video: Path, out: Path):
                          overwrite=getattr(args, "overwrite", False),
                          table_format=getattr(args, "format", "csv"),
                          readout_s=getattr(args, "rolling_shutter_ms", 0.0) / 1e3,
-                         on_frame=lambda i: bar.update(1),
+                         ruler=ruler, on_frame=lambda i: bar.update(1),
                          on_stage=lambda stage: bar.set_description_str(f"track: {stage}"))
 
 
@@ -296,6 +298,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 def cmd_measure(args: argparse.Namespace) -> int:
     from .calibration.known_length import parse_known_length
+    from .calibration.ruler import parse_ruler
     from .pipeline import measure_run
     from .run_folder import RUN_INFO, RunFolder, out_of_date
 
@@ -306,13 +309,14 @@ def cmd_measure(args: argparse.Namespace) -> int:
         plane = load_calibration(args.calibration)
     readout = None if args.rolling_shutter_ms is None else args.rolling_shutter_ms / 1e3
     run = measure_run(args.run, parse_known_length(args.known_length) if args.known_length
-                      else None, plane, args.window_s, readout)
+                      else None, plane, args.window_s, readout,
+                      ruler=parse_ruler(args.ruler) if args.ruler else None)
     _print_warnings(run.warnings)
     q = run.calibration.quality
     scale = (f"{q['mm_per_px']:.5g} mm/px" if "mm_per_px" in q else run.calibration.method)
     info = RunFolder(run.folder).read_json(RUN_INFO) or {}
     readout_s = (info.get("tracking") or {}).get("rolling_shutter_readout_s")
-    print(f"measured {len(run.kinematics)} rows from the tracks ({scale}, "
+    print(f"measured {len(run.motion)} rows from the tracks ({scale}, "
           + (f"rolling shutter {readout_s * 1e3:g} ms" if readout_s else "all rows at once")
           + ")")
     print(f"wrote {', '.join(f.name for f in run.files.values())} in {run.folder}")
@@ -499,18 +503,18 @@ def cmd_inspect(args: argparse.Namespace) -> int:
 
 
 def _pixels_only(folder: str, names: list[str]) -> str:
-    """What a run tracked with no length or calibration lacks, and the command that adds
-    it without tracking again, for the markers it tracked (``names``). Lengths and
-    kinematics are made for the crank-slider's markers: `measure` places the plane on A
-    (a run of other markers was told to add a length it could not take)."""
-    said = "no --known-length or --calibration given: tracks are in pixels only"
+    """What a run tracked with no scale lacks, and the command that adds it without
+    tracking again, for the markers it tracked (``names``): the crank-slider's A–C (or
+    A–B) length, or for other markers a ruler, two points of the frame a known length
+    apart."""
+    said = "no --known-length, --ruler or --calibration given: tracks are in pixels only"
     if {"A", "B"} <= set(names):
         pair = "A-C" if "C" in names else "A-B"
         return (f"{said}, no kinematics (add them with `cranktrack measure {folder} "
                 f"--known-length {pair}=MM`, without tracking again)")
-    return (f"{said}: mm and kinematics are made for the crank-slider's markers, A (the "
-            "pivot) and B, with C or `--marker C=none`; track yours under those names to "
-            "have them")
+    return (f"{said}; add mm and each marker's velocity and acceleration (motion.csv) with "
+            f"`cranktrack measure {folder} --ruler X1,Y1,X2,Y2=MM`, the ends of a known length "
+            "in the picture (px) and that length, without tracking again")
 
 
 def cmd_track(args: argparse.Namespace) -> int:

@@ -26,6 +26,7 @@ from .calibration.plane import (
     add_plane_coordinates,
     align_to_markers,
 )
+from .calibration.ruler import Ruler, ruler_calibration
 from .environment import library_versions
 from .errors import CranktrackError, RunInterrupted
 from .files import (
@@ -41,6 +42,7 @@ from .kinematics.measured import (
     link_wanders,
     measure_kinematics,
 )
+from .kinematics.motion import marker_motion
 from .kinematics.rolling_shutter import at_frame_times
 from .run_folder import (
     CALIBRATION,
@@ -53,6 +55,8 @@ from .run_folder import (
     KINEMATICS,
     KINEMATICS_FIGURE,
     KINEMATICS_PARQUET,
+    MOTION,
+    MOTION_PARQUET,
     RECORDING,
     RUN_INFO,
     TRACKER_STATE,
@@ -121,6 +125,9 @@ class RunResult:
     calibration: PlaneCalibration | None
     files: dict[str, Path] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    #: Every marker's velocity and acceleration (:func:`.kinematics.motion.marker_motion`),
+    #: once the run has a scale.
+    motion: pd.DataFrame | None = None
 
 
 #: The smallest frame side a marker and the ring around it can fit in, px.
@@ -181,6 +188,7 @@ def track_run(
     overwrite: bool = False,
     table_format: str = "csv",
     readout_s: float = 0.0,
+    ruler: Ruler | None = None,
 ) -> RunResult:
     """Track ``video`` into ``out_dir`` (only the frames within ``span``, and only the
     part of each frame within ``roi``, if given).
@@ -205,10 +213,15 @@ def track_run(
     ``readout_s`` > 0 is a rolling shutter's readout time (s, top row to bottom row):
     the kinematics then take each marker's fix back from its row's time to its frame's
     (:func:`.kinematics.rolling_shutter.at_frame_times`); tracks.csv keeps what was seen.
+    ``ruler`` sets the scale from two points of the frame a known distance apart (in
+    place of ``calibration``); with a scale, ``motion.csv`` has every marker's velocity
+    and acceleration, and ``kinematics.csv`` is written for the crank-slider's A and B.
     """
     if table_format not in ("csv", "parquet"):
         raise CranktrackError(f"unknown table format {table_format!r}; use csv or parquet")
     source = open_frames(video, fps=fps)
+    calibration = _with_ruler(calibration, ruler, (source.width, source.height),
+                              source.pixel_aspect)
     _check_before_tracking(source, specs, known_length, calibration, window_s, readout_s)
     # Refused here too, before a folder is made: a calibration no camera could give.
     foreshortening = _foreshortening(calibration, (source.width, source.height))
@@ -227,6 +240,9 @@ def track_run(
                 if result.kinematics is not None:
                     result.files["kinematics_parquet"] = write_parquet_atomic(
                         folder / KINEMATICS_PARQUET, result.kinematics)
+                if result.motion is not None:
+                    result.files["motion_parquet"] = write_parquet_atomic(
+                        folder / MOTION_PARQUET, result.motion)
         except KeyboardInterrupt as e:
             # The tracker's state stays until the whole run is written, so a run stopped
             # in any step after its first frame resumes; before it, there is nothing to.
@@ -236,6 +252,17 @@ def track_run(
             raise
         (folder / TRACKER_STATE).unlink(missing_ok=True)
         return result
+
+
+def _with_ruler(calibration: PlaneCalibration | None, ruler: Ruler | None,
+                size: tuple[int, int], pixel_aspect: float) -> PlaneCalibration | None:
+    """The calibration a run uses: ``calibration``, or the one ``ruler`` gives a frame of
+    ``size`` (width, height px). Both at once are refused: each sets the scale."""
+    if ruler is None:
+        return calibration
+    if calibration is not None:
+        raise CranktrackError("give --ruler or --calibration, not both: each sets the scale")
+    return ruler_calibration(ruler, size, pixel_aspect)
 
 
 def _refuse_long_readout(readout_s: float, frame_s: float, what: str) -> None:
@@ -416,13 +443,14 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
     }
     files["run"] = write_json_atomic(folder / RUN_INFO, run_info)
 
-    cal = kinematics = None
+    cal = kinematics = motion = None
     if known_length is not None or calibration is not None:
         measured = _measure_into(folder, tracks, {s.name: s.hue_deg for s in specs},
                                  (source.width, source.height), known_length, calibration,
                                  window_s, readout_s, on_stage, result.problems,
                                  pixel_aspect=source.pixel_aspect)
         tracks, cal, kinematics = measured.tracks, measured.calibration, measured.kinematics
+        motion = measured.motion
         files.update(measured.files)
         warnings += measured.warnings
         run_info.update(measured.run_info)
@@ -435,9 +463,9 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
     for figure in (KINEMATICS_FIGURE, TRACKS_FIGURE):
         if (folder / figure).is_file():
             files["figure"] = folder / figure
-    record_step(folder, "track", [n for n in (TRACKS, KINEMATICS) if (folder / n).exists()],
-                video=video)
-    return RunResult(folder, tracks, kinematics, cal, files, warnings)
+    record_step(folder, "track", [n for n in (TRACKS, KINEMATICS, MOTION)
+                                  if (folder / n).exists()], video=video)
+    return RunResult(folder, tracks, kinematics, cal, files, warnings, motion)
 
 
 @dataclass(frozen=True)
@@ -447,7 +475,8 @@ class _Measured:
 
     tracks: pd.DataFrame
     calibration: PlaneCalibration
-    kinematics: pd.DataFrame
+    kinematics: pd.DataFrame | None
+    motion: pd.DataFrame
     files: dict[str, Path]
     warnings: list[str]
     run_info: dict
@@ -483,8 +512,10 @@ def _measure_into(folder: Path, tracks: pd.DataFrame, hues: dict[str, float | No
     # The plane's x axis runs from A to C; a run without C keeps the image's x direction.
     axis_to = "C" if "C" in names else None
     if calibration is not None:
-        cal = calibration if aligned else align_to_markers(calibration, tracks,
-                                                           axis_to=axis_to)
+        # The crank-slider's plane frame is set on A; other markers keep the
+        # calibration's own (a ruler's: its first end, x along the image's, y up).
+        cal = (calibration if aligned or "A" not in names
+               else align_to_markers(calibration, tracks, axis_to=axis_to))
         if known_length is not None:
             cal = check_length(cal, tracks, *known_length)
     else:
@@ -495,11 +526,15 @@ def _measure_into(folder: Path, tracks: pd.DataFrame, hues: dict[str, float | No
     files = {"calibration": save_calibration(folder / CALIBRATION, cal)}
     tracks = add_plane_coordinates(tracks, cal, names)
     files["tracks"] = write_csv_atomic(folder / TRACKS, tracks)
-    if not {"A", "B"} <= set(names):
-        raise CranktrackError("kinematics need markers A and B (and C, or --marker C=none); "
-                              "the run tracked only " + ", ".join(names))
     on_stage("kinematics")
     timed = tracks if not readout_s else at_frame_times(tracks, readout_s, size[1], names)
+    motion, motion_info = marker_motion(timed, names, window_s, scale_sigma=cal.scale_sigma)
+    files["motion"] = write_csv_atomic(folder / MOTION, motion)
+    run_info = {"calibration": {"method": cal.method, **cal.quality},
+                "motion": motion_info.to_dict()}
+    if not {"A", "B"} <= set(names):
+        # θ, ω and v_B are the crank-slider's: a run of other markers has their motion.
+        return _Measured(tracks, cal, None, motion, files, warnings, run_info)
     kinematics, info = measure_kinematics(timed, window_s=window_s, scale_sigma=cal.scale_sigma)
     warnings += _link_warnings(info.links)
     if info.theta_from != "A-C":
@@ -514,9 +549,8 @@ def _measure_into(folder: Path, tracks: pd.DataFrame, hues: dict[str, float | No
             f"stops between two frames in which it moves on); their rows of {KINEMATICS} are "
             "empty, since their timestamps are not when their picture was taken")
     files["kinematics"] = write_csv_atomic(folder / KINEMATICS, kinematics)
-    return _Measured(tracks, cal, kinematics, files, warnings,
-                     {"calibration": {"method": cal.method, **cal.quality},
-                      "kinematics": info.to_dict()})
+    return _Measured(tracks, cal, kinematics, motion, files, warnings,
+                     {**run_info, "kinematics": info.to_dict()})
 
 
 #: What `track` adds to the tracks table once it has a scale: dropped before measuring again.
@@ -526,17 +560,20 @@ _PLANE_SUFFIXES = ("_x_mm", "_y_mm", "_sigma_mm")
 def measure_run(run: str | os.PathLike, known_length: tuple[str, str, float] | None = None,
                 calibration: PlaneCalibration | None = None, window_s: float | None = None,
                 readout_s: float | None = None,
-                on_stage: Callable[[str], None] | None = None) -> RunResult:
+                on_stage: Callable[[str], None] | None = None,
+                ruler: Ruler | None = None) -> RunResult:
     """The kinematics of a run folder measured again from its tracks, without tracking
     the video again: with a new scale (``known_length``), plane ``calibration``,
     differentiator window ``window_s`` (s) or rolling shutter readout ``readout_s``
     (s, top row to bottom row; None keeps the run's, 0 takes it off).
 
-    With neither ``known_length`` nor ``calibration``, the run's own calibration.json is
-    used again. Rewrites calibration.json, tracks.csv (its pixels as tracked, the mm
-    from the new calibration), kinematics.csv (and their Parquet copies where the run
-    has them), run.json's calibration, kinematics, readout and warnings, and the report;
-    a later `compare` or `fit` of the run is then out of date, and says so.
+    ``ruler`` sets the scale from two points of the frame (in place of ``calibration``).
+    With neither ``known_length``, ``calibration`` nor ``ruler``, the run's own
+    calibration.json is used again. Rewrites calibration.json, tracks.csv (its pixels as
+    tracked, the mm from the new calibration), motion.csv, kinematics.csv (for A and B;
+    and their Parquet copies where the run has them), run.json's calibration, motion,
+    kinematics, readout and warnings, and the report; a later `compare` or `fit` of the
+    run is then out of date, and says so.
 
     Raises
     ------
@@ -561,6 +598,11 @@ def measure_run(run: str | os.PathLike, known_length: tuple[str, str, float] | N
     tracks = tracks.drop(columns=[c for c in tracks.columns if c.endswith(_PLANE_SUFFIXES)])
     names = tuple(c[:-3] for c in tracks.columns if c.endswith("_ok"))
     width, height = int(source.get("width") or 0), int(source["height"])
+    if ruler is not None and not width:
+        raise CranktrackError(f"{folder / RUN_INFO} does not say the frame's width, which "
+                              "--ruler needs; track the video again")
+    calibration = _with_ruler(calibration, ruler, (width, height),
+                              float(source.get("pixel_aspect") or 1.0))
     if known_length is not None:
         missing = [m for m in known_length[:2] if m not in names]
         if missing:
@@ -575,7 +617,8 @@ def measure_run(run: str | os.PathLike, known_length: tuple[str, str, float] | N
     if reused:
         if not (folder / CALIBRATION).is_file():
             raise CranktrackError(f"{folder.path} has no calibration yet; give a scale: "
-                                  "--known-length A-C=MM or --calibration PLANE.json")
+                                  "--known-length A-C=MM, --ruler X1,Y1,X2,Y2=MM or --calibration "
+                                  "PLANE.json")
         calibration = load_calibration(folder / CALIBRATION, (width, height) if width else None)
     tracking = info["tracking"]
     if readout_s is None:
@@ -608,8 +651,11 @@ def measure_run(run: str | os.PathLike, known_length: tuple[str, str, float] | N
         if (folder / TRACKS_PARQUET).exists():
             files["tracks_parquet"] = write_parquet_atomic(folder / TRACKS_PARQUET,
                                                            measured.tracks)
-            files["kinematics_parquet"] = write_parquet_atomic(folder / KINEMATICS_PARQUET,
-                                                               measured.kinematics)
+            if measured.kinematics is not None:
+                files["kinematics_parquet"] = write_parquet_atomic(
+                    folder / KINEMATICS_PARQUET, measured.kinematics)
+            files["motion_parquet"] = write_parquet_atomic(folder / MOTION_PARQUET,
+                                                           measured.motion)
         from .report.summary import write_report  # matplotlib: only once measured
 
         files["report"] = write_report(folder.path)
@@ -617,9 +663,10 @@ def measure_run(run: str | os.PathLike, known_length: tuple[str, str, float] | N
             files["figure"] = folder / KINEMATICS_FIGURE
         # The tables are what `track` with these options would have written from the same
         # tracks: its manifest entry is renewed, so compare and fit see them as newer.
-        record_step(folder.path, "track", [TRACKS, KINEMATICS])
+        record_step(folder.path, "track", [n for n in (TRACKS, KINEMATICS, MOTION)
+                                           if (folder / n).exists()])
     return RunResult(folder.path, measured.tracks, measured.kinematics, measured.calibration,
-                     files, warnings)
+                     files, warnings, measured.motion)
 
 
 def read_kinematics(run: Path) -> pd.DataFrame:

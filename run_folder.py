@@ -25,6 +25,8 @@ from .files import write_json_atomic
 TRACKS = "tracks.csv"
 #: θ, ω, α, v_B, L3 with σ: the kinematics table.
 KINEMATICS = "kinematics.csv"
+#: Every marker's velocity and acceleration with σ (mm/s, mm/s²), once there is a scale.
+MOTION = "motion.csv"
 #: Provenance, tracking and calibration quality, warnings.
 RUN_INFO = "run.json"
 #: The plane calibration the run used or made.
@@ -33,6 +35,7 @@ CALIBRATION = "calibration.json"
 #: (which the other commands read).
 TRACKS_PARQUET = "tracks.parquet"
 KINEMATICS_PARQUET = "kinematics.parquet"
+MOTION_PARQUET = "motion.parquet"
 #: The run's summary for a person, and its kinematics figure (or, in a run without
 #: kinematics, the figure of its tracks).
 REPORT = "report.md"
@@ -61,7 +64,8 @@ MANIFEST = "manifest.json"
 #: What a tracking run writes or derives from its tracks: cleared before a fresh run
 #: of the same video, so a file of the earlier run (kinematics from an earlier
 #: scale, a fit of the earlier tracks) cannot sit beside the new ones.
-RUN_OUTPUTS = (TRACKS, KINEMATICS, TRACKS_PARQUET, KINEMATICS_PARQUET, RUN_INFO,
+RUN_OUTPUTS = (TRACKS, KINEMATICS, MOTION, TRACKS_PARQUET, KINEMATICS_PARQUET,
+               MOTION_PARQUET, RUN_INFO,
                CALIBRATION, REPORT, KINEMATICS_FIGURE, TRACKS_FIGURE, COMPARE_TABLE, COMPARE_FIT,
                COMPARE_REPORT, RECORDING, MANIFEST)
 

@@ -17,6 +17,7 @@ from ..run_folder import (
     FIT_REPORT_JSON,
     KINEMATICS,
     KINEMATICS_FIGURE,
+    MOTION,
     REPORT,
     RUN_INFO,
     TRACKS,
@@ -108,6 +109,30 @@ def _rest_checks(tracks: pd.DataFrame) -> list[str]:
     return ["", *lines] if lines else []
 
 
+def _motion_lines(run: Path, tracks: pd.DataFrame) -> list[str]:
+    """The report's lines on motion.csv: per marker, the medians of its velocity and
+    acceleration over the frames that have them (a thrown body's ``ay`` is −g there)."""
+    if not (run / MOTION).exists():
+        return []
+    motion = pd.read_csv(run / MOTION)
+    lines = ["", "## Motion", "",
+             "Each marker's velocity (mm/s) and acceleration (mm/s²) per frame are in "
+             f"[{MOTION}]({MOTION}), with σ; the plane's y is up. Medians over the frames "
+             "that have them (median σ):", "",
+             "| marker | frames | vx | vy | ax | ay |", "|---|---|---|---|---|---|"]
+    for m in [c[:-3] for c in tracks.columns if c.endswith("_ok")]:
+        if f"{m}_ax_mm_s2" not in motion:
+            continue
+        cells = []
+        for col in ("vx_mm_s", "vy_mm_s", "ax_mm_s2", "ay_mm_s2"):
+            v, sig = motion[f"{m}_{col}"], motion[f"{m}_{col}_sigma"]
+            cells.append(f"{np.nanmedian(v):.4g} ({np.nanmedian(sig):.2g})"
+                         if v.notna().any() else "–")
+        lines.append(f"| {m} | {int(motion[f'{m}_ay_mm_s2'].notna().sum())} | "
+                     + " | ".join(cells) + " |")
+    return lines
+
+
 def write_report(run: str | os.PathLike) -> Path:
     """Write ``run/report.md`` (and ``kinematics.png``, or ``tracks.png`` in a run without
     kinematics) from what the run folder holds."""
@@ -153,7 +178,9 @@ def write_report(run: str | os.PathLike) -> Path:
     cal = info.get("calibration")
     if cal:
         lines += ["", "## Calibration", "", f"method: {cal.get('method')}", ""]
-        for k in ("length_std_mm", "length_relative_spread", "homography_rms_px",
+        if "ruler" in cal:
+            lines.append(f"- ruler: {cal['ruler']} (X1,Y1,X2,Y2 px = mm)")
+        for k in ("mm_per_px", "length_std_mm", "length_relative_spread", "homography_rms_px",
                   "homography_rms_mm", "check_residual_mm", "scale_rel_sigma"):
             if k in cal:
                 lines.append(f"- {k}: {cal[k]:.4g}")
@@ -171,6 +198,7 @@ def write_report(run: str | os.PathLike) -> Path:
                   f"Differentiator window {k.get('window_samples')} samples "
                   f"({k.get('window_s', float('nan')):.3f} s), rate σ scale "
                   f"{k.get('sigma_scale', float('nan')):.3f}.", "", f"![kinematics]({fig.name})"]
+    lines += _motion_lines(run, tracks)
     if compare:
         lines += ["", "## Model (spool, fitted)", "", "| parameter | value | 1σ |",
                   "|---|---|---|"]

@@ -366,8 +366,11 @@ def test_a_pixel_run_is_told_a_command_that_works_for_the_markers_it_tracked(
     assert main(["track", str(small_h264.video), "--marker", "ball=green",
                  "--out", str(other)]) == 0
     out = capsys.readouterr().out
-    assert "kinematics are made for the crank-slider's markers" in out, out
     assert "--known-length A-C" not in out, out
+    # Other markers are told of a ruler, and that hint too runs as printed.
+    hint = re.search(r"`(cranktrack measure [^`]*)`", out).group(1)
+    assert main(shlex.split(hint.replace("X1,Y1,X2,Y2=MM", "0,0,50,0=100"))[1:]) == 0
+    assert (other / "motion.csv").exists() and not (other / "kinematics.csv").exists()
 
 
 def test_calibrate_readout_from_two_markers_on_a_bar_shaken_sideways(tmp_path, capsys):
