@@ -405,6 +405,10 @@ def _batch_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("pattern", help="quoted glob of videos, e.g. 'recordings/*.mp4'")
     p.add_argument("--out", required=True, help="folder for the run folders and summary.csv")
     p.add_argument("--known-length", metavar="A-C=MM", help="scale for every video")
+    p.add_argument("--ruler", metavar="X1,Y1,X2,Y2=MM",
+                   help="scale for every video from two points of the frame a known length "
+                        "apart, as for `track`: summary.csv then has each marker's median "
+                        "acceleration")
     p.add_argument("--marker", action="append",
                    metavar="NAME=COLOUR[:SHAPE][@X,Y] | NAME=template@X,Y,R",
                    help="the markers of every video, as for `track` (default: A=green B=red "

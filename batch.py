@@ -22,6 +22,7 @@ from .errors import CranktrackError, RunInterrupted
 from .files import ensure_dir, write_csv_atomic
 
 if TYPE_CHECKING:
+    from .calibration.ruler import Ruler
     from .tracker.markers import MarkerSpec
 
 
@@ -48,14 +49,17 @@ def _folder_for(video: Path, out: Path, taken: set[str]) -> Path:
 def process_one(video: str, folder: str, known_length: tuple[str, str, float] | None,
                 compare: bool, resume: bool = False, readout_s: float = 0.0,
                 specs: tuple[MarkerSpec, ...] | None = None,
-                fps: float | None = None) -> dict:
+                fps: float | None = None, ruler: Ruler | None = None) -> dict:
     """Track (and optionally compare) one video; never raises for bad input.
 
     Runs in a worker process or on a Dask worker, so it imports what it needs.
     With ``resume``, a run interrupted in ``folder`` continues where it stopped.
     ``readout_s`` is the camera's rolling-shutter readout (s, top row to bottom row).
     ``specs`` are the markers to track (None: the crank-slider's A, B and C), ``fps``
-    the rate the video was taken at (`track`'s ``--fps``; None: its own clock).
+    the rate the video was taken at (`track`'s ``--fps``; None: its own clock),
+    ``ruler`` the scale from two points of the frame (`track`'s ``--ruler``): the row
+    then has each marker's median acceleration, ``NAME_ax_median_mm_s2`` and
+    ``NAME_ay_median_mm_s2`` (a drop's −g).
     """
     from .pipeline import compare_run, track_run
     from .run_folder import TRACKER_STATE
@@ -65,11 +69,15 @@ def process_one(video: str, folder: str, known_length: tuple[str, str, float] | 
     try:
         resume = resume and (Path(folder) / TRACKER_STATE).exists()
         run = track_run(video, folder, known_length, specs or DEFAULT_MARKERS, fps=fps,
-                        resume=resume, readout_s=readout_s)
+                        resume=resume, readout_s=readout_s, ruler=ruler)
         t = run.tracks
         row["frames"] = len(t)
         for m in [c[:-3] for c in t.columns if c.endswith("_ok")]:
             row[f"{m}_found_pct"] = round(100 * float(t[f"{m}_ok"].mean()), 2)
+            for axis in ("ax", "ay"):
+                col = f"{m}_{axis}_mm_s2"
+                if run.motion is not None and run.motion[col].notna().any():
+                    row[f"{m}_{axis}_median_mm_s2"] = float(run.motion[col].median())
         if run.kinematics is not None:
             th = run.kinematics["theta_deg"]
             row["theta_min_deg"], row["theta_max_deg"] = float(th.min()), float(th.max())
@@ -101,6 +109,7 @@ def run_batch(
     readout_s: float = 0.0,
     specs: tuple[MarkerSpec, ...] | None = None,
     fps: float | None = None,
+    ruler: Ruler | None = None,
 ) -> pd.DataFrame:
     """Process every video matching ``pattern``; write and return ``summary.csv``.
 
@@ -116,7 +125,8 @@ def run_batch(
     the rolling-shutter readout of the one camera that filmed them all (`track`'s
     ``--rolling-shutter-ms``); a video whose frame it does not fit in fails alone.
     ``specs`` are the markers tracked in every video (`track`'s ``--marker``, parsed;
-    None: A, B and C), ``fps`` the rate they were all taken at (``--fps``).
+    None: A, B and C), ``fps`` the rate they were all taken at (``--fps``), ``ruler`` the
+    scale of the one camera's view (``--ruler``, parsed).
 
     The local processes start afresh and import the calling script again, so from a
     script call it under ``if __name__ == "__main__":``. A worker that stops abruptly
@@ -128,7 +138,7 @@ def run_batch(
     out = ensure_dir(out_dir)
     taken: set[str] = set()
     tasks = [(str(v), str(_folder_for(v, out, taken)), known_length, compare, resume,
-              readout_s, specs, fps) for v in videos]
+              readout_s, specs, fps, ruler) for v in videos]
     rows = _finished(out / SUMMARY, {t[0] for t in tasks}) if resume else []
     done = {r["video"] for r in rows}
     tasks = [t for t in tasks if t[0] not in done]

@@ -834,11 +834,14 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 def cmd_batch(args: argparse.Namespace) -> int:
     from .batch import run_batch
     from .calibration.known_length import parse_known_length
+    from .calibration.ruler import parse_ruler
     from .tracker.markers import parse_markers
 
     known = parse_known_length(args.known_length) if args.known_length else None
-    # Parsed here, so that a --marker mistyped is said once, before any video is opened.
+    # Parsed here, so that a --marker or --ruler mistyped is said once, before any video
+    # is opened.
     specs = parse_markers(args.marker) if args.marker else None
+    ruler = parse_ruler(args.ruler) if args.ruler else None
 
     with _progress("batch", unit="video") as bar:
         def start(n: int) -> None:
@@ -853,7 +856,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
         summary = run_batch(args.pattern, args.out, known, args.compare, args.jobs,
                             args.scheduler, on_done=done, resume=args.resume, on_start=start,
                             readout_s=args.rolling_shutter_ms / 1e3, specs=specs,
-                            fps=args.fps)
+                            fps=args.fps, ruler=ruler)
     failed = int((summary["status"] != "ok").sum())
     print(f"{len(summary) - failed} of {len(summary)} videos done; summary in "
           f"{Path(args.out) / 'summary.csv'}")

@@ -56,8 +56,11 @@ import free_fall
 from common import CACHE, Scorecard, decode_only, sure_of_nothing
 from pendulum import G, plane_swing, sphere_swing
 
+from cranktrack.calibration.plane import add_plane_coordinates
 from cranktrack.calibration.readout import readout_from_flight, tilted_plane_residual
+from cranktrack.calibration.ruler import Ruler, ruler_calibration
 from cranktrack.environment import versions_line
+from cranktrack.kinematics.motion import marker_motion
 from cranktrack.pipeline import track_run
 from cranktrack.tracker.markers import parse_markers
 from cranktrack.tracker.survey import frame_and_later, survey
@@ -221,6 +224,19 @@ def tape_ends(trz: Path) -> NDArray | None:
                 return np.array([[float(p["x1"].text), float(p["y1"].text)],
                                  [float(p["x2"].text), float(p["y2"].text)]])
     return None
+
+
+def tool_g(tracks: pd.DataFrame, name: str, ruler: Ruler, size: tuple[int, int],
+           rows: NDArray[np.bool_]) -> tuple[float, float]:
+    """g (m/s²) as a user of ``cranktrack track --ruler`` reads it off motion.csv: minus
+    the median of marker ``name``'s ``ay`` over ``rows`` (in flight), and the median of
+    its σ. The tool's own calibration and differentiator, against the parabolas fitted
+    in this bench."""
+    mm = add_plane_coordinates(tracks, ruler_calibration(ruler, size), (name,))
+    motion, _ = marker_motion(mm, (name,))
+    ay = motion[f"{name}_ay_mm_s2"].to_numpy(float)[rows]
+    sig = motion[f"{name}_ay_mm_s2_sigma"].to_numpy(float)[rows]
+    return -float(np.nanmedian(ay)) / 1e3, float(np.nanmedian(sig)) / 1e3
 
 
 def stick_divisions(video: Path, fps: float | None, ends: NDArray, per_m: int = 10
@@ -500,6 +516,16 @@ def run_clip(repo: Path, clip: Clip, card: Scorecard) -> dict[str, float]:
               f"px the peer's (scale {scale:.1f} px/m from the peer's metre stick)")
         ends = tape_ends(trz)
         if ends is not None:
+            frame_size = open_frames(video, fps)
+            ruler = Ruler(tuple(ends[0]), tuple(ends[1]),
+                          1e3 * float(np.hypot(*(ends[1] - ends[0]))) / scale)
+            in_flight = (tab["frame"].between(peer_frames[0], peer_frames[-1])
+                         & tab[f"{name}_ok"].astype(bool)).to_numpy()
+            g_tool, g_tool_sigma = tool_g(tab, name, ruler, (frame_size.width,
+                                                            frame_size.height), in_flight)
+            print(f"  `--ruler {ruler.text()}` (the peer's tape): motion.csv's ay, median "
+                  f"over the flight, gives g = {g_tool:.3f} m/s² (its σ a frame "
+                  f"{g_tool_sigma:.2f}), against the parabola's {g_ours:.3f} here")
             # The scale again, from the stick's own tenths rather than the peer's tape.
             per_m, n_gaps, gap_rms = stick_divisions(video, fps, ends)
             print(f"  the stick's own divisions ({n_gaps} dark gaps between its tenths, "
@@ -1159,11 +1185,18 @@ def run_free_fall(repo: Path, mosse_python: Path | None, card: Scorecard) -> Non
     g = accel / mm / 1000.0
     print(f"  the tape's scale: {mm:.4f} px/mm from its millimetre ticks ({from_cm:.4f} from "
           f"its centimetre ticks alone)")
+
     rms = float(np.sqrt(np.mean(left**2)))
     print(f"  a parabola through the {falling.sum()} fixes from frame "
           f"{free_fall.FALLING_FROM} on leaves {rms:.3f} px RMS: {accel:.0f} px/s², g = "
           f"{g:.3f} m/s² ({100 * (g / free_fall.G - 1):+.1f} % from {free_fall.G}; aim within "
           f"2 %)")
+    # A user's ruler: 100 mm of the tape, read off at the scale of its ticks.
+    ruler = Ruler((20.0, 100.0), (20.0, 100.0 + 100.0 * mm), 100.0)
+    g_tool, g_tool_sigma = tool_g(tab, ball, ruler, (frames[0].shape[1], height), falling)
+    print(f"  `--ruler {ruler.text()}` (100 mm of the tape): motion.csv's ay, median over the "
+          f"fall, gives g = {g_tool:.3f} m/s² (its σ a frame {g_tool_sigma:.2f}), against the "
+          f"parabola's {g:.3f} here")
     card.add(free_fall.CLIP, "g with the tape's ticks as the scale",
              f"{100 * (g / free_fall.G - 1):+.1f} %", "within 2 %",
              abs(g / free_fall.G - 1) <= 0.02)

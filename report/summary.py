@@ -126,7 +126,7 @@ def _motion_lines(run: Path, tracks: pd.DataFrame) -> list[str]:
         cells = []
         for col in ("vx_mm_s", "vy_mm_s", "ax_mm_s2", "ay_mm_s2"):
             v, sig = motion[f"{m}_{col}"], motion[f"{m}_{col}_sigma"]
-            cells.append(f"{np.nanmedian(v):.4g} ({np.nanmedian(sig):.2g})"
+            cells.append(f"{np.nanmedian(v):.5g} ({np.nanmedian(sig):.2g})"
                          if v.notna().any() else "–")
         lines.append(f"| {m} | {int(motion[f'{m}_ay_mm_s2'].notna().sum())} | "
                      + " | ".join(cells) + " |")

@@ -173,6 +173,8 @@ def test_a_ball_tossed_before_a_ruler_gets_its_velocity_and_g_in_mm(tmp_path):
     tab = run.tracks
     assert tab["ball_x_mm"].iloc[0] == pytest.approx((40 - 10) / PX_PER_MM, abs=1.0)
     assert tab["ball_y_mm"].iloc[0] == pytest.approx((280 - 200) / PX_PER_MM, abs=1.0)
+    report = (run.folder / "report.md").read_text()
+    assert "## Motion" in report and "| ball | " in report
     # Read back as written.
     again = ct.open_run(run.folder)
     assert np.allclose(again.motion["ball_ay_mm_s2"], motion["ball_ay_mm_s2"], equal_nan=True)
@@ -200,3 +202,35 @@ def test_a_pixels_only_run_is_given_a_ruler_afterwards_and_bad_rulers_are_refuse
                          "ball=white@40,200", "--ruler", ruler, "--out", tmp_path / "bad")
         assert bad.returncode != 0 and says in bad.stderr, bad.stderr
         assert "Traceback" not in bad.stderr
+
+
+def test_a_batch_of_tosses_before_one_ruler_gives_each_its_acceleration(tmp_path):
+    import fractions
+
+    import av
+
+    from cranktrack.batch import run_batch
+
+    toss_pictures(tmp_path / "pictures")
+    pictures = [cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
+                for p in sorted((tmp_path / "pictures").glob("*.png"))]
+    for name in ("first", "second"):
+        with av.open(str(tmp_path / f"{name}.mkv"), "w") as out:
+            stream = out.add_stream("ffv1", rate=RATE)
+            stream.width, stream.height, stream.pix_fmt = 320, 300, "gray"
+            for k, picture in enumerate(pictures):
+                frame = av.VideoFrame.from_ndarray(picture, format="gray")
+                frame.pts, frame.time_base = k, fractions.Fraction(1, RATE)
+                out.mux(stream.encode(frame))
+            out.mux(stream.encode())
+    summary = run_batch(str(tmp_path / "*.mkv"), tmp_path / "out", jobs=1,
+                        specs=ct_markers("ball=white@40,200"), ruler=parse_ruler(RULER))
+    assert list(summary["status"]) == ["ok", "ok"], summary["message"].tolist()
+    for ay in summary["ball_ay_median_mm_s2"]:
+        assert abs(ay + G_MM_S2) < 0.01 * G_MM_S2
+
+
+def ct_markers(*text: str):
+    from cranktrack.tracker.markers import parse_markers
+
+    return parse_markers(list(text))
