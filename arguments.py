@@ -361,10 +361,17 @@ def _fit_command(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("fit", help="fit a model to a run, find the effect it lacks, report "
                        "before and after")
     p.add_argument("run", help="run folder written by `cranktrack track`")
-    p.add_argument("--model", choices=["spool", "sma", "dynamic"], default="spool",
+    p.add_argument("--model", choices=["spool", "sma", "dynamic", "flight"], default="spool",
                    help="base model (spool: thesis §2.5.2; dynamic: the free response of "
                    "eq. 3.28, e.g. a `synth free` run; sma: the current-heated bed of §2.5.3 "
-                   "with the heat model of chapter 4, e.g. a `synth sma` run)")
+                   "with the heat model of chapter 4, e.g. a `synth sma` run; flight: a body "
+                   "tossed or dropped, --marker NAME, in a run with a scale: g from a "
+                   "parabola, then a rolling shutter, drag or a tilted plane tried)")
+    p.add_argument("--marker", metavar="NAME", help="--model flight: the body in flight")
+    p.add_argument("--start", type=_time_or_frame, metavar="S|Nf",
+                   help="--model flight: the flight's first frame (s, or a frame number: 8f)")
+    p.add_argument("--end", type=_time_or_frame, metavar="S|Nf",
+                   help="--model flight: the flight's last frame")
     p.add_argument("--known", action="append", metavar="NAME=VALUE",
                    help="a value known from the rig, held fixed (repeatable). spool: L1_mm, "
                    "L2_mm, L3_0_mm, speed_mm_s, start_s (drive switched on, video clock), "

@@ -639,9 +639,28 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _fit_flight(args: argparse.Namespace) -> int:
+    from .loop.flight import flight_text
+    from .pipeline import fit_flight_run
+
+    if args.known:
+        raise CranktrackError("--known is for the crank-slider's models; a flight has none")
+    if not args.marker:
+        raise CranktrackError("--model flight needs --marker NAME, the body in flight")
+    loop, files = fit_flight_run(Path(args.run), args.marker,
+                                 _span(args.start, args.end))
+    print(flight_text(loop, args.marker))
+    print(f"wrote {', '.join(f.name for f in files)} in {Path(args.run) / 'fit'}")
+    return 0
+
+
 def cmd_fit(args: argparse.Namespace) -> int:
     from .pipeline import fit_run
 
+    if args.model == "flight":
+        return _fit_flight(args)
+    if args.marker or args.start or args.end:
+        raise CranktrackError("--marker, --start and --end are for --model flight")
     known = parse_known(args.known, args.model)
     from .report.fit import fit_report
     from .run_folder import out_of_date

@@ -81,6 +81,7 @@ if TYPE_CHECKING:
     from .calibration.readout import PairReadoutFit, ReadoutFit
     from .loop.camera_view import CameraView
     from .loop.compare import Comparison
+    from .loop.flight import FlightLoop
     from .loop.result import LoopResult
 
 RUN_SCHEMA = 1
@@ -767,6 +768,61 @@ def fit_run(run: Path, model: str, known: dict[str, float],
     files.append(write_report(folder.path))
     record_step(folder.path, "fit", [f"{FIT_DIR}/{FIT_TABLE}"], [KINEMATICS, TRACKS])
     return result, files
+
+
+#: `fit --model flight`'s files in the run's fit/ folder: the loop's figures and, per
+#: fix, the place and both models' residuals.
+FLIGHT_JSON = "flight.json"
+FLIGHT_TABLE = "flight.csv"
+
+
+def fit_flight_run(run: Path, marker: str, span: Span | None = None
+                   ) -> tuple[FlightLoop, list[Path]]:
+    """Close the loop on marker ``marker``'s free flight in ``run`` (within ``span``, frames
+    or s; default every frame it was found in): g from a parabola through its place in
+    mm, and the effect a parabola lacks (:func:`.loop.flight.fit_flight`). Writes
+    ``fit/flight.json`` and ``fit/flight.csv``.
+
+    Raises
+    ------
+    CranktrackError
+        The run has no such marker or no scale, or too few fixes in the span.
+    """
+    from .loop.flight import fit_flight
+
+    folder = run_folder(run)
+    tracks = folder.read_tracks()
+    names = [c[:-3] for c in tracks.columns if c.endswith("_ok")]
+    if marker not in names:
+        raise CranktrackError(f"{folder / TRACKS} has no marker {marker}; it has "
+                              f"{', '.join(names)}")
+    if f"{marker}_x_mm" not in tracks:
+        raise CranktrackError(f"the run has no scale, so no g: give one with `cranktrack "
+                              f"measure {folder.path} --ruler X1,Y1,X2,Y2=MM`")
+    info = folder.read_json(RUN_INFO) or {}
+    height = int((info.get("source") or {}).get("height") or 0)
+    rows = tracks[tracks[f"{marker}_ok"].astype(bool)]
+    if span is not None:
+        at = rows["frame"] if span.unit == "frame" else rows["t_s"]
+        rows = rows[(at >= span.start) & (at <= span.end)]
+    sigma = rows[f"{marker}_sigma_mm"].to_numpy(float)
+    scale_sigma = float(((info.get("calibration") or {}).get("scale_rel_sigma")) or 0.0)
+    loop = fit_flight(rows["t_s"].to_numpy(float),
+                      rows[[f"{marker}_x_mm", f"{marker}_y_mm"]].to_numpy(float),
+                      rows[f"{marker}_y_px"].to_numpy(float), height,
+                      float(np.nanmedian(sigma)) if np.isfinite(sigma).any() else 0.0,
+                      scale_sigma)
+    out = ensure_dir(folder.fit_dir)
+    table = pd.DataFrame({"frame": rows["frame"].to_numpy(), "t_s": rows["t_s"].to_numpy(),
+                          "x_mm": rows[f"{marker}_x_mm"].to_numpy(),
+                          "y_mm": rows[f"{marker}_y_mm"].to_numpy(),
+                          "parabola_dx_mm": loop.base.residual[:, 0],
+                          "parabola_dy_mm": loop.base.residual[:, 1],
+                          "final_dx_mm": loop.final.residual[:, 0],
+                          "final_dy_mm": loop.final.residual[:, 1]})
+    files = [write_json_atomic(out / FLIGHT_JSON, {"marker": marker, **loop.to_dict()}),
+             write_csv_atomic(out / FLIGHT_TABLE, table)]
+    return loop, files
 
 
 def compare_run(run: Path, known: dict[str, float],

@@ -83,6 +83,25 @@ def _best_rho(t: NDArray, xy: NDArray, step_s: float, height_px: int) -> float:
                                  options={"xatol": 1e-3 * bound}).x)
 
 
+def flight_fixes(t_s: NDArray, xy: NDArray, least: int, what: str,
+                 *more: NDArray) -> tuple[NDArray, ...]:
+    """A flight's fixes where every one of ``t_s`` (s), ``xy`` (n, 2) and ``more`` (n,)
+    is finite, checked: at least ``least`` of them (``what`` needs them), with times that
+    advance. Returns them in that order."""
+    arrays = [np.asarray(t_s, float), np.asarray(xy, float), *(np.asarray(m, float)
+                                                              for m in more)]
+    ok = np.all(np.isfinite(arrays[1]), axis=1)
+    for a in (arrays[0], *arrays[2:]):
+        ok &= np.isfinite(a)
+    arrays = [a[ok] for a in arrays]
+    if len(arrays[0]) < least:
+        raise CranktrackError(f"only {len(arrays[0])} fixes of the flight; {what} needs at "
+                              f"least {least} frames of a marker flying freely")
+    if not np.all(np.diff(arrays[0]) > 0):
+        raise CranktrackError("the fixes' times do not advance from frame to frame")
+    return tuple(arrays)
+
+
 def readout_from_flight(t_s: NDArray, xy_px: NDArray, height_px: int) -> ReadoutFit:
     """The readout time of a camera ``height_px`` rows tall, from a marker's fixes
     ``xy_px`` (n, 2; image px, y down) at frame times ``t_s`` (s) while it flies
@@ -93,17 +112,8 @@ def readout_from_flight(t_s: NDArray, xy_px: NDArray, height_px: int) -> Readout
     CranktrackError
         Fewer than :data:`MIN_FIXES` fixes, or times that do not advance.
     """
-    t = np.asarray(t_s, float)
-    xy = np.asarray(xy_px, float)
-    ok = np.isfinite(t) & np.all(np.isfinite(xy), axis=1)
-    t, xy = t[ok], xy[ok]
-    if len(t) < MIN_FIXES:
-        raise CranktrackError(f"only {len(t)} fixes of the flight; the readout needs at least "
-                              f"{MIN_FIXES} frames of a marker flying freely")
-    steps = np.diff(t)
-    if not np.all(steps > 0):
-        raise CranktrackError("the fixes' times do not advance from frame to frame")
-    step = float(np.median(steps))
+    t, xy = flight_fixes(t_s, xy_px, MIN_FIXES, "the readout")
+    step = float(np.median(np.diff(t)))
     rho = _best_rho(t, xy, step, height_px)
     # Jackknife: ρ with each fix left out in turn.
     keep = ~np.eye(len(t), dtype=bool)
