@@ -650,7 +650,8 @@ def _fit_flight(args: argparse.Namespace) -> int:
     loop, files = fit_flight_run(Path(args.run), args.marker,
                                  _span(args.start, args.end))
     print(flight_text(loop, args.marker))
-    print(f"wrote {', '.join(f.name for f in files)} in {Path(args.run) / 'fit'}")
+    print(f"wrote {', '.join(f.name for f in files)} in {Path(args.run)} (fit/ for the "
+          "flight's files)")
     return 0
 
 

@@ -822,6 +822,11 @@ def fit_flight_run(run: Path, marker: str, span: Span | None = None
                           "final_dy_mm": loop.final.residual[:, 1]})
     files = [write_json_atomic(out / FLIGHT_JSON, {"marker": marker, **loop.to_dict()}),
              write_csv_atomic(out / FLIGHT_TABLE, table)]
+    from .report.summary import write_report  # matplotlib: only once fitted
+
+    files.append(write_report(folder.path))
+    # A later `measure` (a new ruler) leaves this fit out of date, and says so.
+    record_step(folder.path, "fit", [f"{FIT_DIR}/{FLIGHT_TABLE}"], [TRACKS])
     return loop, files
 
 

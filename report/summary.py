@@ -210,6 +210,18 @@ def write_report(run: str | os.PathLike) -> Path:
                          f"{e['max_abs']:.4g} {e['unit']} | {e['fit_pct']:.2f} |")
         figs = sorted(run.glob("fig_*.png"))
         lines += [""] + [f"![{f.stem}]({f.name})" for f in figs]
+    flight = folder.read_json(f"{FIT_DIR}/flight.json")
+    if flight:
+        base, done = flight["base"], flight["accepted"]
+        lines += ["", f"## Free flight of {flight['marker']} (`fit --model flight`)", "",
+                  f"Parabola: g = {base['g_mm_s2'] / 1e3:.4f} ± "
+                  f"{base['g_sigma_mm_s2'] / 1e3:.4f} m/s², residual {base['rms_mm']:.3g} mm "
+                  f"RMS over {flight['fixes']} fixes. "
+                  + ("No effect lowers the BIC by more than 20." if done is None else
+                     f"Accepted: {done} (residual {flight['candidates'][done]['rms_mm']:.3g} "
+                     "mm)" + (f", alike: {', '.join(flight['look_alikes'])}"
+                              if flight["look_alikes"] else "") + "."),
+                  "Details in [fit/flight.json](fit/flight.json)."]
     fit = folder.read_json(f"{FIT_DIR}/{FIT_REPORT_JSON}")
     if fit:
         effects = ", ".join(fit["effects"]) or "none"

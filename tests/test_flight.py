@@ -103,6 +103,10 @@ def test_the_command_fits_a_tracked_toss_and_says_what_it_lacks(tmp_path, capsys
     assert g == pytest.approx(G / 1e3, rel=0.01)
     assert (run.folder / "fit" / "flight.json").is_file()
     assert (run.folder / "fit" / "flight.csv").is_file()
+    assert "## Free flight of ball" in (run.folder / "report.md").read_text()
+    # A new scale leaves the fit out of date, and `measure` says so.
+    assert main(["measure", str(run.folder), "--ruler", "10,280,310,280=700"]) == 0
+    assert "run `cranktrack fit` again" in capsys.readouterr().err
     for args, says in ((["--model", "flight"], "needs --marker NAME"),
                        (["--model", "flight", "--marker", "cup"], "has no marker cup"),
                        (["--model", "flight", "--marker", "ball", "--known", "L1_mm=3"],
