@@ -1,7 +1,7 @@
 """The Python API: what ``cranktrack track`` and ``cranktrack fit`` do, for a notebook.
 
-``import cranktrack as ct`` gives :func:`track`, :func:`measure`, :func:`open_run` and
-:func:`fit`.
+``import cranktrack as ct`` gives :func:`track`, :func:`measure`, :func:`open_run`,
+:func:`fit` and :func:`flight`.
 They write the same run folder as the commands (so ``cranktrack view`` and the
 reports work on it) and hand back DataFrames and a result object. Nothing here
 prints, shows a progress bar or changes matplotlib's backend.
@@ -29,9 +29,10 @@ from .pipeline import RunResult, fit_run, measure_run, track_run
 from .run_folder import FIT_DIR, FIT_TABLE, KINEMATICS, MOTION, TRACKS, run_folder
 
 if TYPE_CHECKING:
+    from .loop.flight import FlightLoop
     from .loop.result import LoopResult
 
-__all__ = ["Fit", "RunResult", "fit", "measure", "open_run", "track"]
+__all__ = ["Fit", "RunResult", "fit", "flight", "measure", "open_run", "track"]
 
 
 def _specs(markers: Mapping[str, str | float] | None):
@@ -242,3 +243,26 @@ def fit(run: RunResult | str | os.PathLike, model: str = "spool",
     result, files = fit_run(rf.path, model, {k: float(v) for k, v in known.items()})
     table = pd.read_csv(rf.path / FIT_DIR / FIT_TABLE)
     return Fit(result, table, files)
+
+
+def flight(run: RunResult | str | os.PathLike, marker: str, start_s: float | None = None,
+           end_s: float | None = None) -> FlightLoop:
+    """Close the loop on marker ``marker``'s free flight in a run with a scale: what
+    ``cranktrack fit RUN --model flight --marker NAME`` does. ``start_s``/``end_s`` (s)
+    bound the flight (default: every frame the marker was found in). The result's
+    ``.base`` is the parabola (``g_mm_s2``, ``g_sigma_mm_s2``), ``.accepted`` the effect
+    taken (None: the parabola is enough), ``.candidates`` every effect tried; the run's
+    ``fit/flight.json`` and ``fit/flight.csv`` are written.
+
+    Raises :class:`~cranktrack.errors.CranktrackError` with one sentence on bad input.
+    """
+    from .pipeline import fit_flight_run
+    from .tracker.track import Span
+
+    if start_s is not None and end_s is not None and end_s < start_s:
+        raise CranktrackError(f"end_s ({end_s:g}) comes before start_s ({start_s:g})")
+    span = None
+    if start_s is not None or end_s is not None:
+        span = Span(start_s or 0.0, float("inf") if end_s is None else end_s, "s")
+    folder = run.folder if isinstance(run, RunResult) else Path(run)
+    return fit_flight_run(folder, marker, span)[0]
