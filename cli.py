@@ -495,6 +495,10 @@ def cmd_inspect(args: argparse.Namespace) -> int:
             print("(for kinematics name them A, the pivot, B, the crank's tip, and C, the "
                   "slider, or C=none; an A, B or C that is no printed disc, such as an LED or "
                   "a ball, takes :blob after its colour: B=green:blob@X,Y)")
+            print("(for mm, each marker's velocity and acceleration, and g from a flight "
+                  "(`cranktrack fit RUN --model flight --marker NAME`), add --ruler "
+                  "X1,Y1,X2,Y2=MM: the ends of a known length in this picture, px, and "
+                  "that length)")
         if sequence and not args.fps:
             print(f"({video.name} is one of {sequence} numbered pictures: the command tracks "
                   "their folder; FPS is the rate they were taken at)")
