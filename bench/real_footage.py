@@ -61,6 +61,7 @@ from cranktrack.calibration.readout import readout_from_flight, tilted_plane_res
 from cranktrack.calibration.ruler import Ruler, ruler_calibration
 from cranktrack.environment import versions_line
 from cranktrack.kinematics.motion import marker_motion
+from cranktrack.loop.flight import fit_flight
 from cranktrack.pipeline import track_run
 from cranktrack.tracker.markers import parse_markers
 from cranktrack.tracker.survey import frame_and_later, survey
@@ -237,6 +238,29 @@ def tool_g(tracks: pd.DataFrame, name: str, ruler: Ruler, size: tuple[int, int],
     ay = motion[f"{name}_ay_mm_s2"].to_numpy(float)[rows]
     sig = motion[f"{name}_ay_mm_s2_sigma"].to_numpy(float)[rows]
     return -float(np.nanmedian(ay)) / 1e3, float(np.nanmedian(sig)) / 1e3
+
+
+def flight_line(tracks: pd.DataFrame, name: str, ruler: Ruler, size: tuple[int, int],
+                rows: NDArray[np.bool_]) -> str:
+    """What ``cranktrack fit RUN --model flight`` makes of marker ``name``'s flight over
+    ``rows`` with ``ruler``'s scale (:func:`.loop.flight.fit_flight`, a joint least
+    squares apart from ``calibrate readout``'s search): the effect it takes, its
+    look-alikes, the readout and g with it."""
+    cal = ruler_calibration(ruler, size)
+    mm = add_plane_coordinates(tracks, cal, (name,))[rows]
+    loop = fit_flight(mm["t_s"].to_numpy(float),
+                      mm[[f"{name}_x_mm", f"{name}_y_mm"]].to_numpy(float),
+                      mm[f"{name}_y_px"].to_numpy(float), size[1],
+                      float(np.nanmedian(mm[f"{name}_sigma_mm"])), cal.scale_sigma)
+    shutter = loop.candidates["rolling shutter"]
+    alike = f" (alike: {', '.join(loop.look_alikes)})" if loop.look_alikes else ""
+    return (f"`fit --model flight`: takes {loop.accepted or 'the parabola alone'}{alike}; "
+            f"ΔBIC rolling shutter {loop.delta_bic['rolling shutter']:.0f}, tilted plane "
+            f"{loop.delta_bic['tilted plane']:.0f}, quadratic drag "
+            f"{loop.delta_bic['quadratic drag']:.0f}; with the shutter a readout of "
+            f"{shutter.values['readout_ms']:.2f} ms and g = {shutter.g_mm_s2 / 1e3:.3f} ± "
+            f"{shutter.g_sigma_mm_s2 / 1e3:.3f} m/s², the parabola's "
+            f"{loop.base.g_mm_s2 / 1e3:.3f} ± {loop.base.g_sigma_mm_s2 / 1e3:.3f}")
 
 
 def stick_divisions(video: Path, fps: float | None, ends: NDArray, per_m: int = 10
@@ -526,6 +550,8 @@ def run_clip(repo: Path, clip: Clip, card: Scorecard) -> dict[str, float]:
             print(f"  `--ruler {ruler.text()}` (the peer's tape): motion.csv's ay, median "
                   f"over the flight, gives g = {g_tool:.3f} m/s² (its σ a frame "
                   f"{g_tool_sigma:.2f}), against the parabola's {g_ours:.3f} here")
+            print("  " + flight_line(tab, name, ruler, (frame_size.width, frame_size.height),
+                                     in_flight))
             # The scale again, from the stick's own tenths rather than the peer's tape.
             per_m, n_gaps, gap_rms = stick_divisions(video, fps, ends)
             print(f"  the stick's own divisions ({n_gaps} dark gaps between its tenths, "
