@@ -646,11 +646,13 @@ def cmd_compare(args: argparse.Namespace) -> int:
 def _fit_flight(args: argparse.Namespace) -> int:
     from .loop.flight import flight_text
     from .pipeline import fit_flight_run
+    from .run_folder import out_of_date
 
     if args.known:
         raise CranktrackError("--known is for the crank-slider's models; a flight has none")
     if not args.marker:
         raise CranktrackError("--model flight needs --marker NAME, the body in flight")
+    _print_warnings(out_of_date(args.run, ["track"]))
     loop, files = fit_flight_run(Path(args.run), args.marker,
                                  _span(args.start, args.end))
     print(flight_text(loop, args.marker))
