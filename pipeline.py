@@ -507,7 +507,8 @@ def _measure_into(folder: Path, tracks: pd.DataFrame, hues: dict[str, float | No
                    for p in problems)
         raise CranktrackError(
             f"marker {never[0]}{'' if hue is None else f' (hue {hue:g}°)'} was not found in "
-            f"any frame, so there are no kinematics; {folder / TRACKS} has what was found; "
+            "any frame, so nothing is measured in mm (no motion or kinematics); "
+            f"{folder / TRACKS} has what was found; "
             + ("see the warning about it above" if said
                else "check the marker's colour (--marker NAME=COLOUR)"), problems)
     # The plane's x axis runs from A to C; a run without C keeps the image's x direction.
