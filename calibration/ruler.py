@@ -3,8 +3,9 @@
 A ball dropped or tossed in front of a metre stick, a pendulum beside a tape
 measure: the thing filmed carries no second marker whose distance to it is fixed,
 but something in the picture has a known length. The user reads its two ends off
-one frame (``cranktrack inspect``'s picture, or any viewer that shows a pixel's
-place) and types them with the length: ``--ruler X1,Y1,X2,Y2=MM``.
+one frame (``cranktrack inspect``'s picture, whose edges carry a pixel scale, or any
+viewer that shows a pixel's place) and types them with the length:
+``--ruler X1,Y1,X2,Y2=MM``.
 
 This is the same one-scale mapping as :mod:`.known_length`, and carries the same
 assumptions: the camera looks square at the plane of motion and the lens does not

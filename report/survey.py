@@ -19,7 +19,8 @@ def survey_image(rgb: NDArray[np.uint8], table: pd.DataFrame,
                  ) -> NDArray[np.uint8]:
     """The frame (RGB) with each blob of ``table`` (:func:`cranktrack.tracker.survey.survey`)
     circled and labelled with its ``--marker`` value, its radius (px) and whether it
-    moves; disc-like ones in yellow, strips and streaks in cyan. A part of a larger
+    moves; disc-like ones in yellow, strips and streaks in cyan. A pixel scale runs
+    along the top and left edges (:func:`_pixel_scale`). A part of a larger
     blob (``on``) is labelled with its ``m…`` alone. ``placed``: template markers the
     user placed (label, x, y, radius px), each drawn at its radius in magenta. Each
     label lies inside the frame and clear of those before it, beside its circle where
@@ -29,7 +30,7 @@ def survey_image(rgb: NDArray[np.uint8], table: pd.DataFrame,
     scale = max(w / 800.0, 0.4)
     font, size = cv2.FONT_HERSHEY_SIMPLEX, 0.45 * scale
     thick = max(2, int(3 * scale))
-    taken: list[tuple[int, int, int, int]] = []
+    taken = _pixel_scale(img, font, size, thick, scale)
     for label, x, y, radius in placed:
         centre, ring, colour = (round(x), round(y)), max(round(radius), 1), (255, 0, 255)
         cv2.circle(img, centre, ring, colour, max(1, int(scale)), cv2.LINE_AA)
@@ -59,6 +60,39 @@ def survey_image(rgb: NDArray[np.uint8], table: pd.DataFrame,
         cv2.putText(img, label, at, font, size, (0, 0, 0), thick, cv2.LINE_AA)
         cv2.putText(img, label, at, font, size, colour, max(1, int(scale)), cv2.LINE_AA)
     return img
+
+
+#: The survey picture's pixel scale along its top and left edges: a tick every
+#: TICK_PX, a longer one every 5, numbered every NUMBER_PX (frame px).
+TICK_PX = 10
+NUMBER_PX = 100
+
+
+def _pixel_scale(img: NDArray[np.uint8], font: int, size: float, thick: int,
+                 scale: float) -> list[tuple[int, int, int, int]]:
+    """Draw a pixel scale along ``img``'s top and left edges, in place: what a user reads
+    a ruler's ends (``--ruler X1,Y1,X2,Y2=MM``) or a template's place off. The picture
+    keeps the frame's size, so its pixels are the frame's. Returns the numbers' boxes,
+    which the markers' labels keep clear of."""
+    h, w = img.shape[:2]
+    colour, line = (230, 230, 230), max(1, int(scale))
+    boxes = []
+    for axis, extent in ((0, w), (1, h)):
+        for at in range(TICK_PX, extent, TICK_PX):
+            reach = 4 if at % (5 * TICK_PX) else 8
+            a, b = ((at, 0), (at, reach)) if axis == 0 else ((0, at), (reach, at))
+            cv2.line(img, a, b, colour, line)
+            if at % NUMBER_PX:
+                continue
+            text = str(at)
+            (tw, th), base = cv2.getTextSize(text, font, 0.8 * size, 1)
+            x, y = (at + 2, 10 + th) if axis == 0 else (10, at + th // 2)
+            if x + tw >= w or y >= h:
+                continue
+            cv2.putText(img, text, (x, y), font, 0.8 * size, (0, 0, 0), thick, cv2.LINE_AA)
+            cv2.putText(img, text, (x, y), font, 0.8 * size, colour, 1, cv2.LINE_AA)
+            boxes.append((x, y - th, x + tw, y + base))
+    return boxes
 
 
 def _label_box(centre: tuple[int, int], ring: int, tw: int, th: int, w: int, h: int,

@@ -406,6 +406,20 @@ def test_the_survey_pictures_labels_stay_in_the_frame_and_apart():
         taken.append(box)
 
 
+def test_the_survey_picture_has_a_pixel_scale_to_read_a_ruler_s_ends_off():
+    from cranktrack.report.survey import survey_image
+
+    blank = np.zeros((240, 320, 3), np.uint8)
+    img = survey_image(blank, pd.DataFrame(columns=["x_px", "y_px", "radius_px", "marker",
+                                                    "disc_like"]))
+    assert img.shape == blank.shape  # the picture's pixels are the frame's
+    # A tick on the top edge at every 10 px of x, longer at every 50, none between.
+    assert img[2, 100].any() and img[6, 150].any() and img[2, 105].sum() == 0
+    assert not img[6, 140].any()
+    # ...and down the left edge, at every 10 px of y.
+    assert img[200, 2].any() and img[203, 2].sum() == 0
+
+
 def test_a_default_marker_is_not_taken_by_the_centroid_of_a_blob_no_disc_fits():
     # OpenCV's vtest.avi: a blue board with white lettering, in frames where its disc
     # fit failed, was taken for the default C by the blob's centroid (refine's fallback
