@@ -361,17 +361,26 @@ def _fit_command(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("fit", help="fit a model to a run, find the effect it lacks, report "
                        "before and after")
     p.add_argument("run", help="run folder written by `cranktrack track`")
-    p.add_argument("--model", choices=["spool", "sma", "dynamic", "flight"], default="spool",
+    p.add_argument("--model", choices=["spool", "sma", "dynamic", "flight", "pendulum"],
+                   default="spool",
                    help="base model (spool: thesis §2.5.2; dynamic: the free response of "
                    "eq. 3.28, e.g. a `synth free` run; sma: the current-heated bed of §2.5.3 "
                    "with the heat model of chapter 4, e.g. a `synth sma` run; flight: a body "
                    "tossed or dropped, --marker NAME, in a run with a scale: g from a "
-                   "parabola, then a rolling shutter, drag or a tilted plane tried)")
-    p.add_argument("--marker", metavar="NAME", help="--model flight: the body in flight")
+                   "parabola, then a rolling shutter, drag or a tilted plane tried; "
+                   "pendulum: a bob on a string, --marker NAME: its period (and g with "
+                   "--length-mm) from a damped sinusoid, then a quadratic drag, a wide "
+                   "swing's slowing and a drift tried)")
+    p.add_argument("--marker", metavar="NAME",
+                   help="--model flight or pendulum: the body in flight, or the bob")
     p.add_argument("--start", type=_time_or_frame, metavar="S|Nf",
-                   help="--model flight: the flight's first frame (s, or a frame number: 8f)")
+                   help="--model flight or pendulum: the first frame (s, or a frame "
+                   "number: 8f)")
     p.add_argument("--end", type=_time_or_frame, metavar="S|Nf",
-                   help="--model flight: the flight's last frame")
+                   help="--model flight or pendulum: the last frame")
+    p.add_argument("--length-mm", type=_positive, metavar="MM",
+                   help="--model pendulum: the string's length, pivot to the bob's centre "
+                   "(g from the period)")
     p.add_argument("--known", action="append", metavar="NAME=VALUE",
                    help="a value known from the rig, held fixed (repeatable). spool: L1_mm, "
                    "L2_mm, L3_0_mm, speed_mm_s, start_s (drive switched on, video clock), "

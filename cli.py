@@ -661,13 +661,36 @@ def _fit_flight(args: argparse.Namespace) -> int:
     return 0
 
 
+def _fit_swing(args: argparse.Namespace) -> int:
+    from .loop.swing import swing_text
+    from .pipeline import fit_swing_run
+    from .run_folder import out_of_date
+
+    if args.known:
+        raise CranktrackError("--known is for the crank-slider's models; a pendulum takes "
+                              "--length-mm")
+    if not args.marker:
+        raise CranktrackError("--model pendulum needs --marker NAME, the bob")
+    _print_warnings(out_of_date(args.run, ["track"]))
+    loop, unit, files = fit_swing_run(Path(args.run), args.marker,
+                                      _span(args.start, args.end), args.length_mm)
+    print(swing_text(loop, args.marker, unit, args.length_mm))
+    print(f"wrote {', '.join(f.name for f in files)} in {Path(args.run) / 'fit'}")
+    return 0
+
+
 def cmd_fit(args: argparse.Namespace) -> int:
     from .pipeline import fit_run
 
     if args.model == "flight":
+        if args.length_mm is not None:
+            raise CranktrackError("--length-mm is for --model pendulum")
         return _fit_flight(args)
-    if args.marker or args.start or args.end:
-        raise CranktrackError("--marker, --start and --end are for --model flight")
+    if args.model == "pendulum":
+        return _fit_swing(args)
+    if args.marker or args.start or args.end or args.length_mm is not None:
+        raise CranktrackError("--marker, --start, --end and --length-mm are for --model "
+                              "flight or pendulum")
     known = parse_known(args.known, args.model)
     from .report.fit import fit_report
     from .run_folder import out_of_date

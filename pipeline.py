@@ -83,6 +83,7 @@ if TYPE_CHECKING:
     from .loop.compare import Comparison
     from .loop.flight import FlightLoop
     from .loop.result import LoopResult
+    from .loop.swing import SwingLoop
 
 RUN_SCHEMA = 1
 
@@ -771,6 +772,21 @@ def fit_run(run: Path, model: str, known: dict[str, float],
     return result, files
 
 
+def _marker_rows(folder: RunFolder, marker: str, span: Span | None) -> pd.DataFrame:
+    """The rows of ``folder``'s tracks where ``marker`` was found, within ``span`` (frames
+    or s; None: all). Refuses a marker the run does not have."""
+    tracks = folder.read_tracks()
+    names = [c[:-3] for c in tracks.columns if c.endswith("_ok")]
+    if marker not in names:
+        raise CranktrackError(f"{folder / TRACKS} has no marker {marker}; it has "
+                              f"{', '.join(names)}")
+    rows = tracks[tracks[f"{marker}_ok"].astype(bool)]
+    if span is not None:
+        at = rows["frame"] if span.unit == "frame" else rows["t_s"]
+        rows = rows[(at >= span.start) & (at <= span.end)]
+    return rows
+
+
 #: `fit --model flight`'s files in the run's fit/ folder: the loop's figures and, per
 #: fix, the place and both models' residuals.
 FLIGHT_JSON = "flight.json"
@@ -792,20 +808,12 @@ def fit_flight_run(run: Path, marker: str, span: Span | None = None
     from .loop.flight import fit_flight
 
     folder = run_folder(run)
-    tracks = folder.read_tracks()
-    names = [c[:-3] for c in tracks.columns if c.endswith("_ok")]
-    if marker not in names:
-        raise CranktrackError(f"{folder / TRACKS} has no marker {marker}; it has "
-                              f"{', '.join(names)}")
-    if f"{marker}_x_mm" not in tracks:
+    rows = _marker_rows(folder, marker, span)
+    if f"{marker}_x_mm" not in rows:
         raise CranktrackError(f"the run has no scale, so no g: give one with `cranktrack "
                               f"measure {folder.path} --ruler X1,Y1,X2,Y2=MM`")
     info = folder.read_json(RUN_INFO) or {}
     height = int((info.get("source") or {}).get("height") or 0)
-    rows = tracks[tracks[f"{marker}_ok"].astype(bool)]
-    if span is not None:
-        at = rows["frame"] if span.unit == "frame" else rows["t_s"]
-        rows = rows[(at >= span.start) & (at <= span.end)]
     sigma = rows[f"{marker}_sigma_mm"].to_numpy(float)
     scale_sigma = float(((info.get("calibration") or {}).get("scale_rel_sigma")) or 0.0)
     loop = fit_flight(rows["t_s"].to_numpy(float),
@@ -829,6 +837,63 @@ def fit_flight_run(run: Path, marker: str, span: Span | None = None
     # A later `measure` (a new ruler) leaves this fit out of date, and says so.
     record_step(folder.path, "fit", [f"{FIT_DIR}/{FLIGHT_TABLE}"], [TRACKS])
     return loop, files
+
+
+#: `fit --model pendulum`'s files in the run's fit/ folder.
+SWING_JSON = "swing.json"
+SWING_TABLE = "swing.csv"
+
+
+def fit_swing_run(run: Path, marker: str, span: Span | None = None,
+                  length_mm: float | None = None) -> tuple[SwingLoop, str, list[Path]]:
+    """Close the loop on marker ``marker``'s swing in ``run`` (within ``span``): its
+    place along the track's longest direction (mm with a scale, else px), a damped
+    sinusoid, then the effects it lacks (:func:`.loop.swing.fit_swing`); with the
+    string's ``length_mm``, g. Writes ``fit/swing.json`` and ``fit/swing.csv``, and
+    returns the loop, the track's unit and the files.
+
+    Raises
+    ------
+    CranktrackError
+        The run has no such marker, or too short a swing in the span.
+    """
+    from .loop.swing import fit_swing
+
+    if length_mm is not None and not (np.isfinite(length_mm) and length_mm > 0):
+        raise CranktrackError(f"--length-mm {length_mm:g} is not a positive length")
+    folder = run_folder(run)
+    rows = _marker_rows(folder, marker, span)
+    unit = "mm" if f"{marker}_x_mm" in rows else "px"
+    xy = rows[[f"{marker}_x_{unit}", f"{marker}_y_{unit}"]].to_numpy(float)
+    if len(xy) < 3:
+        raise CranktrackError(f"marker {marker} was found in {len(xy)} frames of the span; "
+                              "a swing needs many")
+    # Sideways is the track's longest direction: the bob's swing, whatever the camera's roll.
+    centred = xy - xy.mean(axis=0)
+    along = np.linalg.svd(centred, full_matrices=False)[2][0]
+    sigma = rows[f"{marker}_sigma_{unit}"].to_numpy(float)
+    loop = fit_swing(rows["t_s"].to_numpy(float), centred @ along,
+                     float(np.nanmedian(sigma)) if np.isfinite(sigma).any() else 0.0)
+    if unit == "px":
+        # A swing's width in mm is not known without a scale: no wide-swing correction.
+        loop = replace(loop, base=replace(loop.base, envelope=np.empty(0)),
+                       candidates={k: replace(f, envelope=np.empty(0))
+                                   for k, f in loop.candidates.items()})
+    out = ensure_dir(folder.fit_dir)
+    table = pd.DataFrame({"frame": rows["frame"].to_numpy(), "t_s": rows["t_s"].to_numpy(),
+                          f"sideways_{unit}": centred @ along,
+                          f"damped_residual_{unit}": loop.base.residual,
+                          f"final_residual_{unit}": loop.final.residual})
+    info = {"marker": marker, "unit": unit, "direction": [float(v) for v in along],
+            **loop.to_dict()}
+    if length_mm is not None:
+        info["length_mm"] = length_mm
+        info["g_mm_s2"] = {k: list(f.g(length_mm)) for k, f in
+                           {"damped": loop.base, **loop.candidates}.items()}
+    files = [write_json_atomic(out / SWING_JSON, info), write_csv_atomic(out / SWING_TABLE,
+                                                                          table)]
+    record_step(folder.path, "fit", [f"{FIT_DIR}/{SWING_TABLE}"], [TRACKS])
+    return loop, unit, files
 
 
 def compare_run(run: Path, known: dict[str, float],

@@ -43,7 +43,7 @@ import tempfile
 import time
 import xml.etree.ElementTree as ET
 import zipfile
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import cv2
@@ -62,6 +62,7 @@ from cranktrack.calibration.ruler import Ruler, ruler_calibration
 from cranktrack.environment import versions_line
 from cranktrack.kinematics.motion import marker_motion
 from cranktrack.loop.flight import fit_flight
+from cranktrack.loop.swing import fit_swing
 from cranktrack.pipeline import track_run
 from cranktrack.tracker.markers import parse_markers
 from cranktrack.tracker.survey import frame_and_later, survey
@@ -761,6 +762,16 @@ def run_pendulum(repo: Path, card: Scorecard) -> None:
           f"(g = {G}) against the author's {length_m} m "
           f"({100 * (swing.length_m / length_m - 1):+.1f} %); with their length, g = "
           f"{G * length_m / swing.length_m:.2f} m/s²")
+    # The tool's own pendulum loop (`fit --model pendulum`): a damped sinusoid along the
+    # track's longest direction, in px (no scale here), written apart from this bench.
+    along = np.linalg.svd(xy - xy.mean(axis=0), full_matrices=False)[2][0]
+    tool = fit_swing(t, (xy - xy.mean(axis=0)) @ along, float(np.median(sigma)))
+    g_tool, g_tool_sigma = replace(tool.base, envelope=np.empty(0)).g(1e3 * length_m)
+    print(f"  `fit --model pendulum --length-mm {1e3 * length_m:g}`: a damped sinusoid along "
+          f"the swing, period {tool.base.period_s:.4f} ± {tool.base.period_sigma_s:.4f} s, "
+          f"g = {g_tool / 1e3:.3f} ± {g_tool_sigma / 1e3:.3f} m/s² (a small swing's: no scale "
+          f"here); takes {tool.accepted or 'no effect'}; residual {tool.base.rms:.2f} px "
+          f"({tool.independent:.0f} independent of {tool.samples})")
     # A second centre made apart from the tracker: the centroid of how much redder than
     # green and blue each pixel near our fix is. Where its residual against the same
     # swing matches ours, what is left is in the swing, not in either centre.

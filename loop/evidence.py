@@ -13,6 +13,7 @@ once, moving frames as ``n·(1 − ρ)/(1 + ρ)`` from the lag-1 autocorrelation
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -166,6 +167,83 @@ def delta_bic(simpler: ModelFit, richer: ModelFit, noise: NoiseModel) -> float:
     dk = len(richer.free) - len(simpler.free)
     return float((simpler.rss - richer.rss) / (noise.variance * noise.inflation)
                  - dk * np.log(noise.n_eff))
+
+
+@dataclass(frozen=True)
+class OneEffect:
+    """The verdict on candidate effects, each one more term on a base model of a track
+    (:func:`one_effect`): the noise variance and the independent samples it was judged
+    by, the factor that turns a unit covariance's σ into one under that noise, each
+    candidate's ΔBIC against the base, the one taken (None: the base is enough) and
+    those it cannot be told from."""
+
+    noise2: float
+    n_eff: float
+    sigma_factor: float
+    delta_bic: dict[str, float]
+    accepted: str | None
+    look_alikes: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class EffectLoop:
+    """What a one-effect loop on a track found (:mod:`.flight`, :mod:`.swing`): the base
+    model's fit, each candidate's, the noise it judged them by (the track's unit), the
+    samples and how many are independent, each candidate's ΔBIC against the base, the
+    one taken (None: the base is enough) and its look-alikes. The fits have
+    ``to_dict()``."""
+
+    base: Any
+    candidates: dict[str, Any]
+    noise: float
+    samples: int
+    independent: float
+    delta_bic: dict[str, float]
+    accepted: str | None
+    look_alikes: tuple[str, ...]
+
+    @property
+    def final(self) -> Any:
+        """The fit accepted, or the base."""
+        return self.base if self.accepted is None else self.candidates[self.accepted]
+
+    def to_dict(self) -> dict:
+        return {"base": self.base.to_dict(),
+                "candidates": {k: v.to_dict() for k, v in self.candidates.items()},
+                "noise": self.noise, "samples": self.samples,
+                "independent_samples": self.independent, "delta_bic": self.delta_bic,
+                "accepted": self.accepted, "look_alikes": list(self.look_alikes)}
+
+
+def one_effect(base: tuple[NDArray, int], candidates: dict[str, tuple[NDArray, int]],
+               floor: float) -> OneEffect:
+    """Judge ``candidates`` (name → residual (n, axes) and its number of parameters)
+    against ``base`` (the same for the base model) with one noise for every comparison:
+    what the closest fit leaves, never below ``floor`` (the tracker's σ, the residual's
+    unit), its correlated samples counted once per independent stretch (the fewest on
+    any axis, times the axes). The base's own residual, where an effect bends it, is no
+    noise: its samples would count as one. A candidate is taken at ΔBIC >
+    :data:`BIC_THRESHOLD`; others within :data:`LOOK_ALIKE_BIC` of it are named."""
+    fits = {"": base, **candidates}
+    n = base[0].size
+
+    def per_dof(item: tuple[NDArray, int]) -> float:
+        return float(np.sum(item[0] ** 2)) / (n - item[1])
+
+    closest = min(fits.values(), key=per_dof)
+    noise2 = max(per_dof(closest), floor**2)
+    r = closest[0].reshape(len(closest[0]), -1)
+    n_eff = r.shape[1] * min(effective_samples(r[:, i]) for i in range(r.shape[1]))
+    rss0 = float(np.sum(base[0] ** 2))
+    dbic = {k: float((rss0 - float(np.sum(res**2))) / (noise2 * n / n_eff)
+                     - (k_c - base[1]) * np.log(n_eff))
+            for k, (res, k_c) in candidates.items()}
+    best = max(dbic, key=dbic.get)
+    accepted = best if dbic[best] > BIC_THRESHOLD else None
+    alike = tuple(k for k, v in dbic.items()
+                  if accepted is not None and k != best and dbic[best] - v <= LOOK_ALIKE_BIC)
+    return OneEffect(noise2, n_eff, float(np.sqrt(noise2 * n / n_eff)), dbic, accepted,
+                     alike)
 
 
 def ljung_box_p(residual: NDArray[np.float64], lags: int | None = None) -> float:

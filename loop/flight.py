@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from ..calibration.readout import flight_fixes
-from .evidence import BIC_THRESHOLD, LOOK_ALIKE_BIC, effective_samples
+from .evidence import BIC_THRESHOLD, LOOK_ALIKE_BIC, EffectLoop, one_effect
 
 #: Fewest fixes of a flight: the parabola's six parameters, a candidate's two and a few
 #: to judge them by.
@@ -65,40 +65,18 @@ class FlightFit:
         """RMS per axis, mm."""
         return float(np.sqrt(np.mean(self.residual**2)))
 
+    def to_dict(self) -> dict:
+        return {"values": self.values, "g_mm_s2": self.g_mm_s2,
+                "g_sigma_mm_s2": self.g_sigma_mm_s2, "rms_mm": self.rms_mm,
+                "parameters": self.parameters}
+
 
 @dataclass(frozen=True)
-class FlightLoop:
-    """What the loop found: the parabola, every candidate, the noise it judged them by
-    (per-axis σ, mm; independent fixes) and each candidate's ΔBIC against the
-    parabola; ``accepted`` is the candidate taken (None: the parabola is enough) and
-    ``look_alikes`` those it cannot be told from."""
+class FlightLoop(EffectLoop):
+    """What the loop found on a flight (:class:`.evidence.EffectLoop`; the noise in mm
+    per axis, the samples its fixes), and the frame's rows, for the readout."""
 
-    base: FlightFit
-    candidates: dict[str, FlightFit]
-    noise_mm: float
-    fixes: int
-    independent: float
-    delta_bic: dict[str, float]
-    accepted: str | None
-    look_alikes: tuple[str, ...]
-    #: The frame's rows, for the readout a rolling shutter's ρ gives.
     height_px: int = 0
-
-    @property
-    def final(self) -> FlightFit:
-        return self.base if self.accepted is None else self.candidates[self.accepted]
-
-    def to_dict(self) -> dict:
-        def one(f: FlightFit) -> dict:
-            return {"values": f.values, "g_mm_s2": f.g_mm_s2,
-                    "g_sigma_mm_s2": f.g_sigma_mm_s2, "rms_mm": f.rms_mm,
-                    "parameters": f.parameters}
-
-        return {"base": one(self.base), "candidates": {k: one(v) for k, v in
-                                                       self.candidates.items()},
-                "noise_mm": self.noise_mm, "fixes": self.fixes,
-                "independent_fixes": self.independent, "delta_bic": self.delta_bic,
-                "accepted": self.accepted, "look_alikes": list(self.look_alikes)}
 
 
 def _quadratic(tc: NDArray, p: NDArray) -> NDArray:
@@ -160,7 +138,7 @@ def _g(values: NDArray, cov: NDArray, ia: int = 4) -> tuple[float, float]:
     return g, float(np.sqrt(max(grad @ cov[ia:ia + 2, ia:ia + 2] @ grad, 0.0)))
 
 
-def _solve(model: Callable[[NDArray], NDArray], xy: NDArray, start: NDArray,
+def solve_model(model: Callable[[NDArray], NDArray], xy: NDArray, start: NDArray,
            bounds: tuple = (-np.inf, np.inf)) -> tuple[NDArray, NDArray, NDArray]:
     """Least squares of ``model(p) − xy``: the values, the residual and (JᵀJ)⁻¹."""
     fit = least_squares(lambda p: (model(p) - xy).ravel(), start, bounds=bounds,
@@ -200,7 +178,7 @@ def fit_flight(t_s: NDArray, xy_mm: NDArray, row_px: NDArray, height_px: int,
 
     def add(name: str, model: Callable[[NDArray], NDArray], p0: NDArray, keys: tuple[str, ...],
             has_g: bool = True, bounds: tuple = (-np.inf, np.inf)) -> None:
-        values, residual, unit_cov = _solve(model, xy, p0, bounds)
+        values, residual, unit_cov = solve_model(model, xy, p0, bounds)
         g, g_unit = _g(values, unit_cov) if has_g else (float("nan"), float("nan"))
         fits[name] = FlightFit(name, dict(zip(keys, map(float, values), strict=True)), g,
                                g_unit, residual, len(values))
@@ -226,42 +204,27 @@ def fit_flight(t_s: NDArray, xy_mm: NDArray, row_px: NDArray, height_px: int,
         np.r_[c[2, 0], c[1, 0], c[0, 0], c[2, 1], c[1, 1], c[0, 1], 0.0, 0.0],
         ("px0", "px1", "px2", "py0", "py1", "py2", "r1", "r2"), has_g=False)
 
-    n = 2 * len(t)
     base = fits.pop("parabola")
-    # One noise for every comparison: what the closest fit leaves (never below the
-    # tracker's σ), its correlated fixes counted once per independent stretch (the
-    # fewer on either axis). The parabola's own residual, where an effect bends it, is
-    # no noise: its frames would count as one.
-    closest = min([base, *fits.values()], key=lambda f: f.rss / (n - f.parameters))
-    noise2 = max(closest.rss / (n - closest.parameters), sigma_mm**2)
-    n_eff = 2 * min(effective_samples(closest.residual[:, 0]),
-                    effective_samples(closest.residual[:, 1]))
-    scale = np.sqrt(noise2 * n / n_eff)
+    verdict = one_effect((base.residual, base.parameters),
+                         {k: (f.residual, f.parameters) for k, f in fits.items()}, sigma_mm)
 
     def judged(f: FlightFit) -> FlightFit:
         """``f`` with g's σ under that noise, and the scale's."""
-        sigma = np.hypot(f.g_sigma_mm_s2 * scale, f.g_mm_s2 * scale_sigma)
+        sigma = np.hypot(f.g_sigma_mm_s2 * verdict.sigma_factor, f.g_mm_s2 * scale_sigma)
         return FlightFit(f.effect, f.values, f.g_mm_s2, float(sigma), f.residual,
                          f.parameters)
 
-    base = judged(base)
-    fits = {k: judged(f) for k, f in fits.items()}
-    dbic = {k: float((base.rss - f.rss) / (noise2 * n / n_eff)
-                     - (f.parameters - base.parameters) * np.log(n_eff))
-            for k, f in fits.items()}
-    best = max(dbic, key=dbic.get)
-    accepted = best if dbic[best] > BIC_THRESHOLD else None
-    alike = tuple(k for k, v in dbic.items()
-                  if accepted is not None and k != best and dbic[best] - v <= LOOK_ALIKE_BIC)
-    return FlightLoop(base, fits, float(np.sqrt(noise2)), len(t), n_eff / 2, dbic, accepted,
-                      alike, int(height_px))
+    return FlightLoop(judged(base), {k: judged(f) for k, f in fits.items()},
+                      float(np.sqrt(verdict.noise2)), len(t), verdict.n_eff / 2,
+                      verdict.delta_bic, verdict.accepted, verdict.look_alikes,
+                      int(height_px))
 
 
 def flight_text(loop: FlightLoop, marker: str) -> str:
     """The loop's result for a person: g before and after, each candidate's ΔBIC."""
     b = loop.base
-    lines = [f"{marker} in free flight: {loop.fixes} fixes ({loop.independent:.0f} "
-             f"independent), noise {loop.noise_mm:.3g} mm per axis",
+    lines = [f"{marker} in free flight: {loop.samples} fixes ({loop.independent:.0f} "
+             f"independent), noise {loop.noise:.3g} mm per axis",
              f"parabola: g = {b.g_mm_s2 / 1e3:.4f} ± {b.g_sigma_mm_s2 / 1e3:.4f} m/s², "
              f"residual {b.rms_mm:.3g} mm RMS",
              "candidate        ΔBIC    residual (mm)  g (m/s²)",

@@ -216,7 +216,7 @@ def write_report(run: str | os.PathLike) -> Path:
         lines += ["", f"## Free flight of {flight['marker']} (`fit --model flight`)", "",
                   f"Parabola: g = {base['g_mm_s2'] / 1e3:.4f} ± "
                   f"{base['g_sigma_mm_s2'] / 1e3:.4f} m/s², residual {base['rms_mm']:.3g} mm "
-                  f"RMS over {flight['fixes']} fixes. "
+                  f"RMS over {flight['samples']} fixes. "
                   + ("No effect lowers the BIC by more than 20." if done is None else
                      f"Accepted: {done} (residual {flight['candidates'][done]['rms_mm']:.3g} "
                      "mm)" + (f", alike: {', '.join(flight['look_alikes'])}"

@@ -117,7 +117,7 @@ def test_the_command_fits_a_tracked_toss_and_says_what_it_lacks(tmp_path, capsys
     # The Python API, over the first half of the flight only, at the new scale (the
     # ruler's 300 px now said to be 700 mm, not 750).
     half = ct.flight(run, "ball", end_s=0.2)
-    assert half.fixes == 21 and half.base.g_mm_s2 == pytest.approx(G * 700 / 750, rel=0.01)
+    assert half.samples == 21 and half.base.g_mm_s2 == pytest.approx(G * 700 / 750, rel=0.01)
     pixels = ct.track(tmp_path / "toss", markers={"ball": "white@40,200"}, fps=RATE,
                       out=tmp_path / "pixels")
     assert main(["fit", str(pixels.folder), "--model", "flight", "--marker", "ball"]) != 0

@@ -1,0 +1,229 @@
+"""A pendulum's swing: its period (and g, given the string's length), and the effect a
+damped sinusoid lacks.
+
+A bob on a string, filmed from the front, moves sideways as a damped sinusoid,
+
+    x(t) = c + A·e^{−γt}·cos(ωt + φ),
+
+whose period 2π/ω is the lab's figure: with the string's length L it gives
+g = L·(ω² + γ²) (the undamped rate from the damped one) for a small swing. What the
+sinusoid lacks bends its residual; each candidate here is one more parameter:
+
+- ``quadratic drag``: air at the bob's speed takes amplitude in proportion to it, so
+  the envelope falls as ``A·e^{−γt} / (1 + κ·A·(1 − e^{−γt})/γ)`` rather than as an
+  exponential alone;
+- ``large swing``: a pendulum is slower the wider it swings, ω(A) = ω₀·(1 − β·A²),
+  with β = 1/(16 L²) for a point bob on a string of length L, so the rate rises as
+  the swing dies down;
+- ``drift``: the stand or the camera moves, c + d·t.
+
+Judged as :mod:`.flight` judges a flight: the noise is what the closest fit leaves
+(never below the tracker's σ), correlated samples count once per independent
+stretch, an effect is taken at ΔBIC > :data:`.evidence.BIC_THRESHOLD` and those within
+:data:`.evidence.LOOK_ALIKE_BIC` of it are named with it. With a large swing taken,
+the period and g are the small swing's (β's ω₀). Everything is fitted here with
+``scipy.optimize.least_squares``; the tests draw their swings by integrating the
+pendulum's equation of motion in the test.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.special import ellipk
+
+from ..errors import CranktrackError
+from .evidence import BIC_THRESHOLD, LOOK_ALIKE_BIC, EffectLoop, one_effect
+from .flight import solve_model
+
+#: Fewest samples of a swing: two periods at a few frames each, at the least.
+MIN_SAMPLES = 20
+
+
+@dataclass(frozen=True)
+class SwingFit:
+    """One model fitted to a swing: its name, values (the track's unit, s), the period
+    (s) and its 1-σ, the residual and the number of parameters."""
+
+    effect: str
+    values: dict[str, float]
+    period_s: float
+    period_sigma_s: float
+    residual: NDArray[np.float64] = field(repr=False)
+    parameters: int
+    #: The swing's amplitude at each sample (the track's unit), for the period of a wide
+    #: swing.
+    envelope: NDArray[np.float64] = field(repr=False, default_factory=lambda: np.empty(0))
+
+    @property
+    def rss(self) -> float:
+        return float(np.sum(self.residual**2))
+
+    @property
+    def rms(self) -> float:
+        return float(np.sqrt(np.mean(self.residual**2)))
+
+    def to_dict(self) -> dict:
+        return {"values": self.values, "period_s": self.period_s,
+                "period_sigma_s": self.period_sigma_s, "rms": self.rms,
+                "parameters": self.parameters}
+
+    def g(self, length: float) -> tuple[float, float]:
+        """g (the track's unit per s², with ``length`` in that unit) and its 1-σ.
+
+        A swing of angle θ is slower than a small one by (2/π)·K(sin²(θ/2)); the
+        fitted rate is the mean over the swing's samples, so it is taken back to a
+        small swing's by the mean of that factor over them (θ from the envelope and
+        the length: sideways amplitude = L·sin θ). The ``large swing`` model fits the
+        small swing's rate itself. Then ω₀² = ω² + γ² (the undamped rate) times the
+        length."""
+        w = 2 * np.pi / self.period_s
+        if self.effect != "large swing" and self.envelope.size:
+            theta = np.arcsin(np.clip(np.abs(self.envelope) / length, 0.0, 1.0))
+            w *= float(np.mean(2.0 / np.pi * ellipk(np.sin(theta / 2) ** 2)))
+        gamma = self.values.get("gamma_per_s", 0.0)
+        g = length * (w**2 + gamma**2)
+        return float(g), float(length * 2 * w * w * self.period_sigma_s / self.period_s)
+
+
+class SwingLoop(EffectLoop):
+    """What the loop found on a swing (:class:`.evidence.EffectLoop`)."""
+
+
+def _envelope(t: NDArray, a: float, gamma: float, kappa: float = 0.0) -> NDArray:
+    """The amplitude at ``t``: ``a·e^{−γt}``, divided by ``1 + κ·a·(1 − e^{−γt})/γ``
+    under a quadratic drag (``κ·a·t`` as γ → 0)."""
+    decay = np.exp(-gamma * t)
+    spent = t if abs(gamma) < 1e-12 else -np.expm1(-gamma * t) / gamma
+    return a * decay / (1.0 + kappa * a * spent)
+
+
+def _swing(t: NDArray, p: NDArray, kappa: float = 0.0, beta: float = 0.0,
+           drift: float = 0.0) -> NDArray:
+    """p = (c, A, γ, ω, φ): the sideways place at ``t`` (s from the first sample). With
+    ``beta`` the rate follows the envelope, ω·(1 − β·A(t)²), and the phase is its
+    integral (trapezoids over the samples)."""
+    c, a, gamma, w, phi = p[:5]
+    amp = _envelope(t, a, gamma, kappa)
+    if beta:
+        rate = w * (1.0 - beta * amp**2)
+        phase = np.r_[0.0, np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(t))]
+    else:
+        phase = w * t
+    return c + drift * t + amp * np.cos(phase + phi)
+
+
+def _start(t: NDArray, x: NDArray) -> NDArray:
+    """(c, A, γ, ω, φ) to start from: the strongest frequency of the samples on an even
+    grid, its amplitude and phase by linear least squares, no damping."""
+    step = float(np.median(np.diff(t)))
+    grid = np.arange(t[0], t[-1], step)
+    xs = np.interp(grid, t, x) - np.mean(x)
+    spectrum = np.abs(np.fft.rfft(xs * np.hanning(len(xs))))
+    freqs = np.fft.rfftfreq(len(xs), step)
+    k = int(np.argmax(spectrum[1:]) + 1)
+    w = 2 * np.pi * freqs[k]
+    M = np.c_[np.ones_like(t), np.cos(w * t), np.sin(w * t)]
+    c, a, b = np.linalg.lstsq(M, x, rcond=None)[0]
+    return np.array([c, np.hypot(a, b), 0.0, w, np.arctan2(-b, a)])
+
+
+def fit_swing(t_s: NDArray, x: NDArray, sigma: float = 0.0) -> SwingLoop:
+    """Fit a pendulum's sideways track ``x`` (any length unit; NaN: not found) at times
+    ``t_s`` (s) and close the loop on it; ``sigma`` is the tracker's σ in ``x``'s unit,
+    the floor of the noise.
+
+    Raises
+    ------
+    CranktrackError
+        Fewer than :data:`MIN_SAMPLES` samples, times that do not advance, or no swing
+        to find (under two periods in the samples).
+    """
+    t = np.asarray(t_s, float)
+    xv = np.asarray(x, float)
+    ok = np.isfinite(t) & np.isfinite(xv)
+    t, xv = t[ok], xv[ok]
+    if len(t) < MIN_SAMPLES:
+        raise CranktrackError(f"only {len(t)} samples of the swing; a fit needs at least "
+                              f"{MIN_SAMPLES}")
+    if not np.all(np.diff(t) > 0):
+        raise CranktrackError("the samples' times do not advance from frame to frame")
+    t = t - t[0]
+    p0 = _start(t, xv)
+    if not 2 * 2 * np.pi / p0[3] <= t[-1]:
+        raise CranktrackError(f"the track spans {t[-1]:.3g} s, under two swings of the "
+                              f"{2 * np.pi / p0[3]:.3g} s it seems to have; track longer")
+    keys = ("c", "amplitude", "gamma_per_s", "omega_rad_s", "phase_rad")
+    fits: dict[str, SwingFit] = {}
+
+    def add(name: str, model: Callable[[NDArray], NDArray], start: NDArray,
+            extra: tuple[str, ...] = (), bounds: tuple = (-np.inf, np.inf)) -> None:
+        values, residual, cov = solve_model(model, xv[:, None], start, bounds)
+        w, sw = values[3], np.sqrt(max(cov[3, 3], 0.0))
+        kappa = values[5] if name == "quadratic drag" else 0.0
+        fits[name] = SwingFit(name, dict(zip((*keys, *extra), map(float, values),
+                                             strict=True)),
+                              float(2 * np.pi / w), float(2 * np.pi * sw / w**2),
+                              residual[:, 0], len(values),
+                              _envelope(t, values[1], values[2], kappa))
+
+    add("damped", lambda p: _swing(t, p)[:, None], p0)
+    base_values = np.array(list(fits["damped"].values.values()))
+    drag = (np.r_[np.full(5, -np.inf), 0.0], np.full(6, np.inf))
+    add("quadratic drag", lambda p: _swing(t, p[:5], kappa=p[5])[:, None],
+        np.r_[base_values, 1e-6], ("kappa",), bounds=drag)
+    add("large swing", lambda p: _swing(t, p[:5], beta=p[5])[:, None],
+        np.r_[base_values, 0.0], ("beta",))
+    add("drift", lambda p: _swing(t, p[:5], drift=p[5])[:, None], np.r_[base_values, 0.0],
+        ("drift_per_s",))
+
+    base = fits.pop("damped")
+    verdict = one_effect((base.residual, base.parameters),
+                         {k: (f.residual, f.parameters) for k, f in fits.items()}, sigma)
+
+    def judged(f: SwingFit) -> SwingFit:
+        return SwingFit(f.effect, f.values, f.period_s,
+                        f.period_sigma_s * verdict.sigma_factor, f.residual, f.parameters,
+                        f.envelope)
+
+    return SwingLoop(judged(base), {k: judged(f) for k, f in fits.items()},
+                     float(np.sqrt(verdict.noise2)), len(t), verdict.n_eff,
+                     verdict.delta_bic, verdict.accepted, verdict.look_alikes)
+
+
+def swing_text(loop: SwingLoop, marker: str, unit: str, length_mm: float | None = None
+               ) -> str:
+    """The loop's result for a person: the period (and g, with the string's length in
+    mm) before and after, each candidate's ΔBIC; ``unit`` is the track's."""
+    def g_of(f: SwingFit) -> str:
+        if length_mm is None:
+            return ""
+        g, s = f.g(length_mm)
+        return f", g = {g / 1e3:.4f} ± {s / 1e3:.4f} m/s²"
+
+    b = loop.base
+    lines = [f"{marker} swinging: {loop.samples} samples ({loop.independent:.0f} "
+             f"independent), noise {loop.noise:.3g} {unit}"
+             + ("" if length_mm is None or b.envelope.size else
+                "; with no scale its width in mm is not known, so g is a small swing's"),
+             f"damped sinusoid: period {b.period_s:.5f} ± {b.period_sigma_s:.5f} s"
+             f"{g_of(b)}, residual {b.rms:.3g} {unit} RMS",
+             "candidate        ΔBIC    residual  period (s)",
+             "---------------  ------  --------  --------------------"]
+    for k, f in loop.candidates.items():
+        lines.append(f"{k:<15}  {loop.delta_bic[k]:6.1f}  {f.rms:8.3g}  "
+                     f"{f.period_s:.5f} ± {f.period_sigma_s:.5f}{g_of(f)}")
+    if loop.accepted is None:
+        lines.append(f"no effect lowers the BIC by more than {BIC_THRESHOLD:g}: the damped "
+                     "sinusoid is enough")
+    else:
+        lines.append(f"accepted: {loop.accepted}; residual {b.rms:.3g} → "
+                     f"{loop.final.rms:.3g} {unit}")
+        if loop.look_alikes:
+            lines.append("but " + ", ".join(loop.look_alikes) + " explains the swing as "
+                         f"well (ΔBIC within {LOOK_ALIKE_BIC:g}): this track cannot tell "
+                         "them apart")
+    return "\n".join(lines)
