@@ -675,7 +675,8 @@ def _fit_swing(args: argparse.Namespace) -> int:
     loop, unit, files = fit_swing_run(Path(args.run), args.marker,
                                       _span(args.start, args.end), args.length_mm)
     print(swing_text(loop, args.marker, unit, args.length_mm))
-    print(f"wrote {', '.join(f.name for f in files)} in {Path(args.run) / 'fit'}")
+    print(f"wrote {', '.join(f.name for f in files)} in {Path(args.run)} (fit/ for the "
+          "swing's files)")
     return 0
 
 

@@ -892,6 +892,9 @@ def fit_swing_run(run: Path, marker: str, span: Span | None = None,
                            {"damped": loop.base, **loop.candidates}.items()}
     files = [write_json_atomic(out / SWING_JSON, info), write_csv_atomic(out / SWING_TABLE,
                                                                           table)]
+    from .report.summary import write_report  # matplotlib: only once fitted
+
+    files.append(write_report(folder.path))
     record_step(folder.path, "fit", [f"{FIT_DIR}/{SWING_TABLE}"], [TRACKS])
     return loop, unit, files
 

@@ -222,6 +222,20 @@ def write_report(run: str | os.PathLike) -> Path:
                      "mm)" + (f", alike: {', '.join(flight['look_alikes'])}"
                               if flight["look_alikes"] else "") + "."),
                   "Details in [fit/flight.json](fit/flight.json)."]
+    swing = folder.read_json(f"{FIT_DIR}/swing.json")
+    if swing:
+        base, done = swing["base"], swing["accepted"]
+        g = swing.get("g_mm_s2", {}).get("damped")
+        lines += ["", f"## Swing of {swing['marker']} (`fit --model pendulum`)", "",
+                  f"Damped sinusoid: period {base['period_s']:.5f} ± "
+                  f"{base['period_sigma_s']:.5f} s"
+                  + (f", g = {g[0] / 1e3:.4f} ± {g[1] / 1e3:.4f} m/s² with a string of "
+                     f"{swing['length_mm']:g} mm" if g else "")
+                  + f", residual {base['rms']:.3g} {swing['unit']} RMS over "
+                  f"{swing['samples']} samples. "
+                  + ("No effect lowers the BIC by more than 20." if done is None else
+                     f"Accepted: {done}."),
+                  "Details in [fit/swing.json](fit/swing.json)."]
     fit = folder.read_json(f"{FIT_DIR}/{FIT_REPORT_JSON}")
     if fit:
         effects = ", ".join(fit["effects"]) or "none"

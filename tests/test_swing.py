@@ -95,6 +95,7 @@ def test_the_command_fits_a_tracked_swing(tmp_path, capsys):
     assert period == pytest.approx(2 * np.pi * np.sqrt(L / G), rel=2e-3)
     assert "g = 9.8" in out and "width in mm is not known" in out
     assert (run / "fit" / "swing.json").is_file()
+    assert "## Swing of bob" in (run / "report.md").read_text()
     for args, says in ((["--model", "pendulum"], "needs --marker NAME"),
                        (["--model", "pendulum", "--marker", "bob", "--known", "L1_mm=3"],
                         "a pendulum takes --length-mm"),
