@@ -672,9 +672,12 @@ def _fit_swing(args: argparse.Namespace) -> int:
     if not args.marker:
         raise CranktrackError("--model pendulum needs --marker NAME, the bob")
     _print_warnings(out_of_date(args.run, ["track"]))
-    loop, unit, files = fit_swing_run(Path(args.run), args.marker,
-                                      _span(args.start, args.end), args.length_mm)
+    loop, unit, arc_px, files = fit_swing_run(Path(args.run), args.marker,
+                                              _span(args.start, args.end), args.length_mm)
     print(swing_text(loop, args.marker, unit, args.length_mm))
+    if arc_px is not None and args.length_mm is not None:
+        print(f"(no scale: the swing's angle is its width over the radius of its arc, "
+              f"{arc_px:.0f} px, the circle through the bob's path)")
     print(f"wrote {', '.join(f.name for f in files)} in {Path(args.run)} (fit/ for the "
           "swing's files)")
     return 0

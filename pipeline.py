@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
+from numpy.typing import NDArray
 
 from .calibration.file import load_calibration, save_calibration
 from .calibration.known_length import calibrate_known_length, check_length
@@ -772,6 +773,26 @@ def fit_run(run: Path, model: str, known: dict[str, float],
     return result, files
 
 
+#: The bob's path is taken for an arc about a pivot when the circle through it has a
+#: radius whose 1-σ is under this share of it.
+ARC_RADIUS_REL_SIGMA = 0.2
+
+
+def _arc_radius(xy: NDArray) -> float | None:
+    """The radius (px) of the circle through a bob's path ``xy`` (n, 2 px), or None where
+    the path is too straight or short for one (its radius's σ over
+    :data:`ARC_RADIUS_REL_SIGMA` of it, or the centre below the path: a pivot hangs
+    above its bob, image y down)."""
+    from .tracker.outline import fit_circle
+
+    p, cov, _ = fit_circle(xy)
+    if not (np.all(np.isfinite(p)) and np.isfinite(cov[2, 2]) and p[2] > 0):
+        return None
+    if np.sqrt(max(cov[2, 2], 0.0)) > ARC_RADIUS_REL_SIGMA * p[2] or p[1] > np.mean(xy[:, 1]):
+        return None
+    return float(p[2])
+
+
 def _marker_rows(folder: RunFolder, marker: str, span: Span | None) -> pd.DataFrame:
     """The rows of ``folder``'s tracks where ``marker`` was found, within ``span`` (frames
     or s; None: all). Refuses a marker the run does not have."""
@@ -845,12 +866,14 @@ SWING_TABLE = "swing.csv"
 
 
 def fit_swing_run(run: Path, marker: str, span: Span | None = None,
-                  length_mm: float | None = None) -> tuple[SwingLoop, str, list[Path]]:
+                  length_mm: float | None = None
+                  ) -> tuple[SwingLoop, str, float | None, list[Path]]:
     """Close the loop on marker ``marker``'s swing in ``run`` (within ``span``): its
     place along the track's longest direction (mm with a scale, else px), a damped
     sinusoid, then the effects it lacks (:func:`.loop.swing.fit_swing`); with the
     string's ``length_mm``, g. Writes ``fit/swing.json`` and ``fit/swing.csv``, and
-    returns the loop, the track's unit and the files.
+    returns the loop, the track's unit, the radius (px) of the arc the swing's angle was
+    read from (a track in px; None otherwise or where no arc was found) and the files.
 
     Raises
     ------
@@ -874,18 +897,27 @@ def fit_swing_run(run: Path, marker: str, span: Span | None = None,
     sigma = rows[f"{marker}_sigma_{unit}"].to_numpy(float)
     loop = fit_swing(rows["t_s"].to_numpy(float), centred @ along,
                      float(np.nanmedian(sigma)) if np.isfinite(sigma).any() else 0.0)
+    arc_px = None
     if unit == "px":
-        # A swing's width in mm is not known without a scale: no wide-swing correction.
-        loop = replace(loop, base=replace(loop.base, envelope=np.empty(0)),
-                       candidates={k: replace(f, envelope=np.empty(0))
-                                   for k, f in loop.candidates.items()})
+        # Without a scale the swing's angle is its width over the radius of its arc, both
+        # in px: the circle through the bob's path, about the pivot. Where that circle is
+        # not found, the wide-swing correction is left out.
+        arc_px = _arc_radius(xy)
+        mm_per_px = (0.0 if arc_px is None or length_mm is None
+                     else length_mm / arc_px)
+
+        def in_mm(f):
+            return replace(f, envelope=f.envelope * mm_per_px if mm_per_px else np.empty(0))
+
+        loop = replace(loop, base=in_mm(loop.base),
+                       candidates={k: in_mm(f) for k, f in loop.candidates.items()})
     out = ensure_dir(folder.fit_dir)
     table = pd.DataFrame({"frame": rows["frame"].to_numpy(), "t_s": rows["t_s"].to_numpy(),
                           f"sideways_{unit}": centred @ along,
                           f"damped_residual_{unit}": loop.base.residual,
                           f"final_residual_{unit}": loop.final.residual})
     info = {"marker": marker, "unit": unit, "direction": [float(v) for v in along],
-            **loop.to_dict()}
+            **({} if arc_px is None else {"arc_radius_px": arc_px}), **loop.to_dict()}
     if length_mm is not None:
         info["length_mm"] = length_mm
         info["g_mm_s2"] = {k: list(f.g(length_mm)) for k, f in
@@ -896,7 +928,7 @@ def fit_swing_run(run: Path, marker: str, span: Span | None = None,
 
     files.append(write_report(folder.path))
     record_step(folder.path, "fit", [f"{FIT_DIR}/{SWING_TABLE}"], [TRACKS])
-    return loop, unit, files
+    return loop, unit, arc_px, files
 
 
 def compare_run(run: Path, known: dict[str, float],

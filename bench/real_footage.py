@@ -54,7 +54,7 @@ from numpy.typing import NDArray
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import free_fall
 from common import CACHE, Scorecard, decode_only, sure_of_nothing
-from pendulum import G, plane_swing, sphere_swing
+from pendulum import G, circle_through, plane_swing, sphere_swing
 
 from cranktrack.calibration.plane import add_plane_coordinates
 from cranktrack.calibration.readout import readout_from_flight, tilted_plane_residual
@@ -766,11 +766,17 @@ def run_pendulum(repo: Path, card: Scorecard) -> None:
     # track's longest direction, in px (no scale here), written apart from this bench.
     along = np.linalg.svd(xy - xy.mean(axis=0), full_matrices=False)[2][0]
     tool = fit_swing(t, (xy - xy.mean(axis=0)) @ along, float(np.median(sigma)))
-    g_tool, g_tool_sigma = replace(tool.base, envelope=np.empty(0)).g(1e3 * length_m)
+    g_small, _ = replace(tool.base, envelope=np.empty(0)).g(1e3 * length_m)
+    # The swing's angle as the tool reads it without a scale (width over the arc's
+    # radius), the arc here from this bench's own circle through the path.
+    arc = circle_through(xy)[2]
+    g_tool, g_tool_sigma = replace(tool.base, envelope=tool.base.envelope * 1e3 * length_m
+                                   / arc).g(1e3 * length_m)
     print(f"  `fit --model pendulum --length-mm {1e3 * length_m:g}`: a damped sinusoid along "
           f"the swing, period {tool.base.period_s:.4f} ± {tool.base.period_sigma_s:.4f} s, "
-          f"g = {g_tool / 1e3:.3f} ± {g_tool_sigma / 1e3:.3f} m/s² (a small swing's: no scale "
-          f"here); takes {tool.accepted or 'no effect'}; residual {tool.base.rms:.2f} px "
+          f"g = {g_tool / 1e3:.3f} ± {g_tool_sigma / 1e3:.3f} m/s² with the swing's angle "
+          f"over an arc of {arc:.0f} px ({g_small / 1e3:.3f} as a small swing); takes "
+          f"{tool.accepted or 'no effect'}; residual {tool.base.rms:.2f} px "
           f"({tool.independent:.0f} independent of {tool.samples})")
     # A second centre made apart from the tracker: the centroid of how much redder than
     # green and blue each pixel near our fix is. Where its residual against the same

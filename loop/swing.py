@@ -208,7 +208,8 @@ def swing_text(loop: SwingLoop, marker: str, unit: str, length_mm: float | None 
     lines = [f"{marker} swinging: {loop.samples} samples ({loop.independent:.0f} "
              f"independent), noise {loop.noise:.3g} {unit}"
              + ("" if length_mm is None or b.envelope.size else
-                "; with no scale its width in mm is not known, so g is a small swing's"),
+                "; with no scale or arc its width is not known, so g is a small "
+                "swing's"),
              f"damped sinusoid: period {b.period_s:.5f} ± {b.period_sigma_s:.5f} s"
              f"{g_of(b)}, residual {b.rms:.3g} {unit} RMS",
              "candidate        ΔBIC    residual  period (s)",

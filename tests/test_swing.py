@@ -72,28 +72,43 @@ def test_too_short_a_swing_is_refused_in_one_sentence():
         fit_swing(*swing(0.1, seconds=3.0), NOISE)
 
 
+def swing_angle(theta0: float, seconds: float = 20.0, fps: float = 30.0):
+    """Times (s) and the angle (rad) of an undamped swing from rest at θ0."""
+    t = np.arange(int(seconds * fps)) / fps
+    sol = solve_ivp(lambda _, u: [u[1], -(G / L) * np.sin(u[0])], (0.0, t[-1]),
+                    [theta0, 0.0], t_eval=t, rtol=1e-11, atol=1e-12, method="DOP853")
+    return t, sol.y[0]
+
+
 def test_the_command_fits_a_tracked_swing(tmp_path, capsys):
     from cranktrack.cli import main
     from cranktrack.files import write_csv_atomic, write_json_atomic
 
-    # A run folder as `track` writes it, of a swing drawn in pixels (2 px a mm, the
-    # camera rolled by 30°): the command fits along the swing, whatever its direction.
-    t, x = swing(0.1, b=0.02)
+    # A run folder as `track` writes it, of a 0.4 rad swing drawn in pixels (0.5 px a
+    # mm, the camera rolled by 30°), with no scale: the command fits along the swing,
+    # whatever its direction, and reads the swing's angle off the arc of its path.
+    t, theta = swing_angle(0.4)
     roll = np.radians(30)
-    px = 2.0 * x
+    side, up = 0.5 * L * np.sin(theta), 0.5 * L * (1 - np.cos(theta))
+    rng = np.random.default_rng(5)
     run = tmp_path / "run"
     run.mkdir()
     write_csv_atomic(run / "tracks.csv", pd.DataFrame({
-        "frame": np.arange(t.size), "t_s": t, "bob_x_px": 400 + px * np.cos(roll),
-        "bob_y_px": 300 + px * np.sin(roll), "bob_sigma_px": 0.4, "bob_ok": True,
-        "bob_status": "ok"}))
+        "frame": np.arange(t.size), "t_s": t,
+        "bob_x_px": 400 + side * np.cos(roll) + up * np.sin(roll) + rng.normal(0, .1, t.size),
+        "bob_y_px": 500 + side * np.sin(roll) - up * np.cos(roll) + rng.normal(0, .1, t.size),
+        "bob_sigma_px": 0.1, "bob_ok": True, "bob_status": "ok"}))
     write_json_atomic(run / "run.json", {"source": {"width": 800, "height": 600}})
     assert main(["fit", str(run), "--model", "pendulum", "--marker", "bob",
                  "--length-mm", str(L)]) == 0
     out = capsys.readouterr().out
     period = float(out.split("period ")[1].split(" ")[0])
-    assert period == pytest.approx(2 * np.pi * np.sqrt(L / G), rel=2e-3)
-    assert "g = 9.8" in out and "width in mm is not known" in out
+    # A 0.4 rad swing is 1 % slower than a small one, and g from it taken back by the
+    # arc's angle (without it: 2 % low).
+    assert period == pytest.approx(2 * np.pi * np.sqrt(L / G) * 1.0102, rel=2e-3)
+    g = float(out.split("g = ")[1].split(" ")[0])
+    assert g == pytest.approx(G / 1e3, rel=3e-3)
+    assert "radius of its arc, 500 px" in out
     assert (run / "fit" / "swing.json").is_file()
     assert "## Swing of bob" in (run / "report.md").read_text()
     for args, says in ((["--model", "pendulum"], "needs --marker NAME"),
