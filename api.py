@@ -1,7 +1,7 @@
 """The Python API: what ``cranktrack track`` and ``cranktrack fit`` do, for a notebook.
 
 ``import cranktrack as ct`` gives :func:`track`, :func:`measure`, :func:`open_run`,
-:func:`fit` and :func:`flight`.
+:func:`fit`, :func:`flight` and :func:`swing`.
 They write the same run folder as the commands (so ``cranktrack view`` and the
 reports work on it) and hand back DataFrames and a result object. Nothing here
 prints, shows a progress bar or changes matplotlib's backend.
@@ -31,8 +31,9 @@ from .run_folder import FIT_DIR, FIT_TABLE, KINEMATICS, MOTION, TRACKS, run_fold
 if TYPE_CHECKING:
     from .loop.flight import FlightLoop
     from .loop.result import LoopResult
+    from .loop.swing import SwingLoop
 
-__all__ = ["Fit", "RunResult", "fit", "flight", "measure", "open_run", "track"]
+__all__ = ["Fit", "RunResult", "fit", "flight", "measure", "open_run", "swing", "track"]
 
 
 def _specs(markers: Mapping[str, str | float] | None):
@@ -257,12 +258,35 @@ def flight(run: RunResult | str | os.PathLike, marker: str, start_s: float | Non
     Raises :class:`~cranktrack.errors.CranktrackError` with one sentence on bad input.
     """
     from .pipeline import fit_flight_run
+
+    return fit_flight_run(_folder(run), marker, _seconds(start_s, end_s))[0]
+
+
+def swing(run: RunResult | str | os.PathLike, marker: str, length_mm: float | None = None,
+          start_s: float | None = None, end_s: float | None = None) -> SwingLoop:
+    """Close the loop on marker ``marker``'s swing in a run: what ``cranktrack fit RUN
+    --model pendulum --marker NAME`` does. The result's ``.base`` is the damped sinusoid
+    (``period_s``, ``period_sigma_s``; ``.g(length_mm)`` gives g in mm/s² and its σ),
+    ``.accepted`` the effect taken (None: the sinusoid is enough), ``.candidates`` every
+    effect tried; ``length_mm`` (the string's) adds g to the run's ``fit/swing.json``.
+
+    Raises :class:`~cranktrack.errors.CranktrackError` with one sentence on bad input.
+    """
+    from .pipeline import fit_swing_run
+
+    return fit_swing_run(_folder(run), marker, _seconds(start_s, end_s), length_mm)[0]
+
+
+def _folder(run: RunResult | str | os.PathLike) -> Path:
+    return run.folder if isinstance(run, RunResult) else Path(run)
+
+
+def _seconds(start_s: float | None, end_s: float | None):
+    """``start_s``…``end_s`` (s) as a span of the tracks, checked; None for all of them."""
     from .tracker.track import Span
 
     if start_s is not None and end_s is not None and end_s < start_s:
         raise CranktrackError(f"end_s ({end_s:g}) comes before start_s ({start_s:g})")
-    span = None
-    if start_s is not None or end_s is not None:
-        span = Span(start_s or 0.0, float("inf") if end_s is None else end_s, "s")
-    folder = run.folder if isinstance(run, RunResult) else Path(run)
-    return fit_flight_run(folder, marker, span)[0]
+    if start_s is None and end_s is None:
+        return None
+    return Span(start_s or 0.0, float("inf") if end_s is None else end_s, "s")

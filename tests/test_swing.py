@@ -111,6 +111,14 @@ def test_the_command_fits_a_tracked_swing(tmp_path, capsys):
     assert "radius of its arc, 500 px" in out
     assert (run / "fit" / "swing.json").is_file()
     assert "## Swing of bob" in (run / "report.md").read_text()
+    # The Python API: the same fit, and the first half of the track alone.
+    import cranktrack as ct
+
+    whole, half = ct.swing(run, "bob", L), ct.swing(run, "bob", L, end_s=10.0)
+    assert whole.base.period_s == pytest.approx(period, abs=1e-5)
+    assert half.samples == 301
+    with pytest.raises(CranktrackError, match="comes before"):
+        ct.swing(run, "bob", start_s=5.0, end_s=2.0)
     for args, says in ((["--model", "pendulum"], "needs --marker NAME"),
                        (["--model", "pendulum", "--marker", "bob", "--known", "L1_mm=3"],
                         "a pendulum takes --length-mm"),
