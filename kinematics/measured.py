@@ -30,6 +30,7 @@ tracking glitch, or a camera that is not square to the plane).
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -370,14 +371,15 @@ def _durbin_watson(deviation: np.ndarray) -> float:
     return float(np.sum(np.diff(e) ** 2) / np.sum(e**2))
 
 
-def repeated_rows(tracks: pd.DataFrame) -> NDArray[np.bool_]:
+def repeated_rows(tracks: pd.DataFrame, names: Iterable[str] = "ABC") -> NDArray[np.bool_]:
     """Rows of a tracks table whose picture repeats the one before: in the pixel track
-    of A, B or C (where the table has them) the marker all but stops for one frame
-    between two in which it moves on the same way (:func:`.tracker.scatter.repeated_frames`).
-    A phone that cannot keep up writes the last picture again; footage converted from
-    a lower frame rate repeats every second or third."""
+    of any marker of ``names`` (where the table has it; A, B and C by default) the
+    marker all but stops for one frame between two in which it moves on the same way
+    (:func:`.tracker.scatter.repeated_frames`). A phone that cannot keep up writes the
+    last picture again; footage converted from a lower frame rate repeats every second
+    or third."""
     out = np.zeros(len(tracks), dtype=bool)
-    for m in "ABC":
+    for m in names:
         if {f"{m}_x_px", f"{m}_y_px", f"{m}_ok"} <= set(tracks.columns):
             out |= repeated_frames(found_xy(tracks, m))
     return out

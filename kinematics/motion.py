@@ -34,9 +34,8 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from ..errors import CranktrackError
-from ..tracker.scatter import found_xy, repeated_frames
 from .differentiate import choose_window, local_polynomial
-from .measured import noise_scale, rates, window_samples
+from .measured import noise_scale, rates, repeated_rows, window_samples
 
 #: The columns per marker, in mm/s and mm/s², each followed by its ``_sigma``.
 MOTION_VALUES = ("vx_mm_s", "vy_mm_s", "speed_mm_s", "ax_mm_s2", "ay_mm_s2")
@@ -54,13 +53,6 @@ class MotionInfo:
     def to_dict(self) -> dict:
         return {"window_samples": self.windows, "sigma_scale": self.sigma_scales,
                 "repeated_frames": self.repeated_frames}
-
-
-def _repeated(tracks: pd.DataFrame, names: tuple[str, ...]) -> NDArray[np.bool_]:
-    out = np.zeros(len(tracks), dtype=bool)
-    for m in names:
-        out |= repeated_frames(found_xy(tracks, m))
-    return out
 
 
 def marker_motion(tracks: pd.DataFrame, names: tuple[str, ...],
@@ -82,7 +74,7 @@ def marker_motion(tracks: pd.DataFrame, names: tuple[str, ...],
         if f"{m}_x_mm" not in tracks:
             raise CranktrackError(f"the tracks have no plane coordinates for marker {m}; "
                                   "give a scale first")
-    repeat = _repeated(tracks, names)
+    repeat = repeated_rows(tracks, names)
     kept = tracks[~repeat].reset_index(drop=True)
     t = kept["t_s"].to_numpy(float)
     columns: dict[str, NDArray] = {}

@@ -71,12 +71,9 @@ class FlightFit:
                 "parameters": self.parameters}
 
 
-@dataclass(frozen=True)
 class FlightLoop(EffectLoop):
     """What the loop found on a flight (:class:`.evidence.EffectLoop`; the noise in mm
-    per axis, the samples its fixes), and the frame's rows, for the readout."""
-
-    height_px: int = 0
+    per axis, the samples its fixes)."""
 
 
 def _quadratic(tc: NDArray, p: NDArray) -> NDArray:
@@ -216,8 +213,7 @@ def fit_flight(t_s: NDArray, xy_mm: NDArray, row_px: NDArray, height_px: int,
 
     return FlightLoop(judged(base), {k: judged(f) for k, f in fits.items()},
                       float(np.sqrt(verdict.noise2)), len(t), verdict.n_eff / 2,
-                      verdict.delta_bic, verdict.accepted, verdict.look_alikes,
-                      int(height_px))
+                      verdict.delta_bic, verdict.accepted, verdict.look_alikes)
 
 
 def flight_text(loop: FlightLoop, marker: str) -> str:
