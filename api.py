@@ -267,8 +267,9 @@ def swing(run: RunResult | str | os.PathLike, marker: str, length_mm: float | No
     """Close the loop on marker ``marker``'s swing in a run: what ``cranktrack fit RUN
     --model pendulum --marker NAME`` does. The result's ``.base`` is the damped sinusoid
     (``period_s``, ``period_sigma_s``; ``.g(length_mm)`` gives g in mm/s² and its σ),
-    ``.accepted`` the effect taken (None: the sinusoid is enough), ``.candidates`` every
-    effect tried; ``length_mm`` (the string's) adds g to the run's ``fit/swing.json``.
+    ``.accepted`` the effects taken, one at a time, joined by " + " (None: the sinusoid
+    is enough), ``.final`` their fit, ``.candidates`` every fit tried, under the same
+    names; ``length_mm`` (the string's) adds g to the run's ``fit/swing.json``.
 
     Raises :class:`~cranktrack.errors.CranktrackError` with one sentence on bad input.
     """

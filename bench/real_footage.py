@@ -761,7 +761,7 @@ def run_pendulum(repo: Path, card: Scorecard) -> None:
     print(f"  its period {swing.period_s:.4f} s gives a string of {swing.length_m:.3f} m "
           f"(g = {G}) against the author's {length_m} m "
           f"({100 * (swing.length_m / length_m - 1):+.1f} %); with their length, g = "
-          f"{G * length_m / swing.length_m:.2f} m/s²")
+          f"{G * length_m / swing.length_m:.3f} m/s²")
     # The tool's own pendulum loop (`fit --model pendulum`): a damped sinusoid along the
     # track's longest direction, in px (no scale here), written apart from this bench.
     along = np.linalg.svd(xy - xy.mean(axis=0), full_matrices=False)[2][0]
@@ -772,12 +772,18 @@ def run_pendulum(repo: Path, card: Scorecard) -> None:
     arc = circle_through(xy)[2]
     g_tool, g_tool_sigma = replace(tool.base, envelope=tool.base.envelope * 1e3 * length_m
                                    / arc).g(1e3 * length_m)
+    final = tool.final
+    g_final, g_final_sigma = replace(final, envelope=final.envelope * 1e3 * length_m
+                                     / arc).g(1e3 * length_m)
     print(f"  `fit --model pendulum --length-mm {1e3 * length_m:g}`: a damped sinusoid along "
           f"the swing, period {tool.base.period_s:.4f} ± {tool.base.period_sigma_s:.4f} s, "
           f"g = {g_tool / 1e3:.3f} ± {g_tool_sigma / 1e3:.3f} m/s² with the swing's angle "
-          f"over an arc of {arc:.0f} px ({g_small / 1e3:.3f} as a small swing); takes "
-          f"{tool.accepted or 'no effect'}; residual {tool.base.rms:.2f} px "
-          f"({tool.independent:.0f} independent of {tool.samples})")
+          f"over an arc of {arc:.0f} px ({g_small / 1e3:.3f} as a small swing), residual "
+          f"{tool.base.rms:.2f} px; takes {tool.accepted or 'no effect'} "
+          f"({tool.independent:.0f} independent samples of {tool.samples}): residual "
+          f"{final.rms:.2f} px ({tool.unexplained:.1f}× our σ), period "
+          f"{final.period_s:.4f} ± {final.period_sigma_s:.4f} s, g = {g_final / 1e3:.3f} ± "
+          f"{g_final_sigma / 1e3:.3f} m/s²")
     # A second centre made apart from the tracker: the centroid of how much redder than
     # green and blue each pixel near our fix is. Where its residual against the same
     # swing matches ours, what is left is in the swing, not in either centre.

@@ -12,6 +12,7 @@ once, moving frames as ``n·(1 − ρ)/(1 + ρ)`` from the lag-1 autocorrelation
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -39,6 +40,12 @@ WHITE_P = 0.01
 #: not see (0.015 N·m: RMS 1.34× the tracker's σ, p 0.8). On the nulls the ratio is
 #: 1 within a few %.
 WHITE_BUT_LARGE = 1.2
+
+
+#: A final fit that leaves more than this many times the tracker's σ still holds
+#: something none of the candidates is (:attr:`EffectLoop.unexplained`): a right model
+#: leaves the tracker's own error, about 1×.
+UNEXPLAINED = 2.0
 
 
 def fit_percent(measured: np.ndarray, model: np.ndarray) -> float:
@@ -170,28 +177,59 @@ def delta_bic(simpler: ModelFit, richer: ModelFit, noise: NoiseModel) -> float:
 
 
 @dataclass(frozen=True)
-class OneEffect:
-    """The verdict on candidate effects, each one more term on a base model of a track
-    (:func:`one_effect`): the noise variance and the independent samples it was judged
-    by, the factor that turns a unit covariance's σ into one under that noise, each
-    candidate's ΔBIC against the base, the one taken (None: the base is enough) and
-    those it cannot be told from."""
+class Step:
+    """One round of :func:`effects_in_turn`: each effect tried on top of those already
+    taken (``on``, in the order taken) and its ΔBIC against them, the one taken (None:
+    those are enough, and the rounds end) and those it cannot be told from."""
 
-    noise2: float
-    n_eff: float
-    sigma_factor: float
+    on: tuple[str, ...]
     delta_bic: dict[str, float]
-    accepted: str | None
+    taken: str | None
     look_alikes: tuple[str, ...]
 
 
 @dataclass(frozen=True)
+class Verdict:
+    """The verdict on candidate effects, each one more term on a base model of a track
+    (:func:`effects_in_turn`): the noise variance and the independent samples it was
+    judged by, the factor that turns a unit covariance's σ into one under that noise,
+    and its rounds."""
+
+    noise2: float
+    n_eff: float
+    sigma_factor: float
+    steps: tuple[Step, ...]
+
+    @property
+    def taken(self) -> tuple[str, ...]:
+        """The effects taken, in the order taken (empty: the base is enough)."""
+        return tuple(s.taken for s in self.steps if s.taken is not None)
+
+    def factor(self, residual: NDArray, parameters: int) -> float:
+        """What turns a fit's unit covariance σ into its σ (:attr:`sigma_factor` for the
+        closest fit): under the larger of the noise and what the fit itself leaves, with
+        its own independent samples. A fit that leaves a bend (the base, where an effect
+        is taken) is no surer than its residual says."""
+        r = residual.reshape(len(residual), -1)
+        own = float(np.sum(r**2)) / max(r.size - parameters, 1)
+        n_eff = r.shape[1] * min(effective_samples(r[:, i]) for i in range(r.shape[1]))
+        return float(np.sqrt(max(own, self.noise2) * r.size / min(n_eff, self.n_eff)))
+
+
+def combined(effects: tuple[str, ...]) -> str:
+    """The name of a model with ``effects`` on its base, as a loop lists it."""
+    return " + ".join(effects)
+
+
+@dataclass(frozen=True)
 class EffectLoop:
-    """What a one-effect loop on a track found (:mod:`.flight`, :mod:`.swing`): the base
-    model's fit, each candidate's, the noise it judged them by (the track's unit), the
-    samples and how many are independent, each candidate's ΔBIC against the base, the
-    one taken (None: the base is enough) and its look-alikes. The fits have
-    ``to_dict()``."""
+    """What an effect loop on a track found (:mod:`.flight`, :mod:`.swing`): the base
+    model's fit, each candidate's (one effect each, under its name, and those with more,
+    under :func:`combined` names), the noise it judged them by (the track's unit), the
+    samples and how many are independent, each single effect's ΔBIC against the base,
+    the fit taken (None: the base is enough) and the first round's look-alikes; then the
+    later rounds (:class:`Step`: an effect tried on top of those taken) and the
+    tracker's σ (the noise's floor). The fits have ``to_dict()``."""
 
     base: Any
     candidates: dict[str, Any]
@@ -201,31 +239,69 @@ class EffectLoop:
     delta_bic: dict[str, float]
     accepted: str | None
     look_alikes: tuple[str, ...]
+    later: tuple[Step, ...] = ()
+    floor: float = 0.0
 
     @property
     def final(self) -> Any:
         """The fit accepted, or the base."""
         return self.base if self.accepted is None else self.candidates[self.accepted]
 
+    @property
+    def unexplained(self) -> float:
+        """What the final fit leaves, in times the tracker's σ (NaN without one): well
+        over 1 where something none of the candidates holds bends the track."""
+        rms = float(np.sqrt(np.mean(self.final.residual**2)))
+        return rms / self.floor if self.floor > 0 else float("nan")
+
     def to_dict(self) -> dict:
         return {"base": self.base.to_dict(),
                 "candidates": {k: v.to_dict() for k, v in self.candidates.items()},
                 "noise": self.noise, "samples": self.samples,
                 "independent_samples": self.independent, "delta_bic": self.delta_bic,
-                "accepted": self.accepted, "look_alikes": list(self.look_alikes)}
+                "accepted": self.accepted, "look_alikes": list(self.look_alikes),
+                "later_rounds": [{"on": list(s.on), "delta_bic": s.delta_bic,
+                                  "taken": s.taken, "look_alikes": list(s.look_alikes)}
+                                 for s in self.later],
+                "tracker_sigma": self.floor}
+
+    @classmethod
+    def judged(cls, base: Any, candidates: dict[str, Any], verdict: Verdict, samples: int,
+               independent: float, floor: float) -> EffectLoop:
+        """The loop's result from its fits and :func:`effects_in_turn`'s verdict."""
+        first = verdict.steps[0]
+        return cls(base, candidates, float(np.sqrt(verdict.noise2)), samples, independent,
+                   first.delta_bic, combined(verdict.taken) or None, first.look_alikes,
+                   verdict.steps[1:], floor)
 
 
-def one_effect(base: tuple[NDArray, int], candidates: dict[str, tuple[NDArray, int]],
-               floor: float) -> OneEffect:
-    """Judge ``candidates`` (name → residual (n, axes) and its number of parameters)
-    against ``base`` (the same for the base model) with one noise for every comparison:
-    what the closest fit leaves, never below ``floor`` (the tracker's σ, the residual's
+def effects_in_turn(fit: Callable[[tuple[str, ...]], tuple[NDArray, int]],
+                    names: tuple[str, ...], floor: float, most: int | None = None
+                    ) -> Verdict:
+    """Take effects ``names`` one at a time onto a base model of a track, the one that
+    explains most first, while each lowers the BIC by more than :data:`BIC_THRESHOLD`.
+
+    ``fit(effects)`` fits the base with ``effects`` on it (``()``: the base alone) and
+    returns its residual (n, axes) and number of parameters. The path is fitted to the
+    end (or to ``most`` effects), each round adding the effect that leaves least; then
+    every comparison is judged with one noise: what the closest fit on the path leaves
+    per degree of freedom, never below ``floor`` (the tracker's σ, the residual's
     unit), its correlated samples counted once per independent stretch (the fewest on
     any axis, times the axes). The base's own residual, where an effect bends it, is no
-    noise: its samples would count as one. A candidate is taken at ΔBIC >
-    :data:`BIC_THRESHOLD`; others within :data:`LOOK_ALIKE_BIC` of it are named."""
-    fits = {"": base, **candidates}
-    n = base[0].size
+    noise: its samples would count as one. In each round the others within
+    :data:`LOOK_ALIKE_BIC` of the one taken are named with it.
+    """
+    most = len(names) if most is None else min(most, len(names))
+    fits = {(): fit(())}
+    n = fits[()][0].size
+    path: list[tuple[str, ...]] = [()]
+    for _ in range(most):
+        on = path[-1]
+        for name in names:
+            if name not in on:
+                fits[(*on, name)] = fit((*on, name))
+        tried = [k for k in fits if len(k) == len(on) + 1 and k[:-1] == on]
+        path.append(min(tried, key=lambda k: float(np.sum(fits[k][0] ** 2))))
 
     def per_dof(item: tuple[NDArray, int]) -> float:
         return float(np.sum(item[0] ** 2)) / (n - item[1])
@@ -234,16 +310,33 @@ def one_effect(base: tuple[NDArray, int], candidates: dict[str, tuple[NDArray, i
     noise2 = max(per_dof(closest), floor**2)
     r = closest[0].reshape(len(closest[0]), -1)
     n_eff = r.shape[1] * min(effective_samples(r[:, i]) for i in range(r.shape[1]))
-    rss0 = float(np.sum(base[0] ** 2))
-    dbic = {k: float((rss0 - float(np.sum(res**2))) / (noise2 * n / n_eff)
-                     - (k_c - base[1]) * np.log(n_eff))
-            for k, (res, k_c) in candidates.items()}
-    best = max(dbic, key=dbic.get)
-    accepted = best if dbic[best] > BIC_THRESHOLD else None
-    alike = tuple(k for k, v in dbic.items()
-                  if accepted is not None and k != best and dbic[best] - v <= LOOK_ALIKE_BIC)
-    return OneEffect(noise2, n_eff, float(np.sqrt(noise2 * n / n_eff)), dbic, accepted,
-                     alike)
+    scale = noise2 * n / n_eff
+
+    steps = []
+    for on in path[:-1]:
+        rss0, k0 = float(np.sum(fits[on][0] ** 2)), fits[on][1]
+        dbic = {k[-1]: float((rss0 - float(np.sum(fits[k][0] ** 2))) / scale
+                             - (fits[k][1] - k0) * np.log(n_eff))
+                for k in fits if len(k) == len(on) + 1 and k[:-1] == on}
+        best = max(dbic, key=dbic.get)
+        taken = best if dbic[best] > BIC_THRESHOLD else None
+        alike = tuple(k for k, v in dbic.items()
+                      if taken is not None and k != best and dbic[best] - v <= LOOK_ALIKE_BIC)
+        steps.append(Step(on, dbic, taken, alike))
+        # A round's ΔBIC ranks as its residuals do when its effects have as many
+        # parameters; where one with more wins on ΔBIC, nothing was fitted on top of it.
+        if taken is None or (*on, taken) not in path:
+            break
+    return Verdict(noise2, n_eff, float(np.sqrt(scale)), tuple(steps))
+
+
+def one_effect(base: tuple[NDArray, int], candidates: dict[str, tuple[NDArray, int]],
+               floor: float) -> Verdict:
+    """:func:`effects_in_turn` with one effect at most, of ``candidates`` fitted
+    already (name → residual (n, axes) and its number of parameters) against ``base``
+    (the same for the base model)."""
+    return effects_in_turn(lambda on: candidates[on[0]] if on else base,
+                           tuple(candidates), floor, most=1)
 
 
 def ljung_box_p(residual: NDArray[np.float64], lags: int | None = None) -> float:

@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from ..calibration.readout import flight_fixes
-from .evidence import BIC_THRESHOLD, LOOK_ALIKE_BIC, EffectLoop, one_effect
+from .evidence import BIC_THRESHOLD, LOOK_ALIKE_BIC, UNEXPLAINED, EffectLoop, one_effect
 
 #: Fewest fixes of a flight: the parabola's six parameters, a candidate's two and a few
 #: to judge them by.
@@ -207,13 +207,13 @@ def fit_flight(t_s: NDArray, xy_mm: NDArray, row_px: NDArray, height_px: int,
 
     def judged(f: FlightFit) -> FlightFit:
         """``f`` with g's σ under that noise, and the scale's."""
-        sigma = np.hypot(f.g_sigma_mm_s2 * verdict.sigma_factor, f.g_mm_s2 * scale_sigma)
+        sigma = np.hypot(f.g_sigma_mm_s2 * verdict.factor(f.residual, f.parameters),
+                         f.g_mm_s2 * scale_sigma)
         return FlightFit(f.effect, f.values, f.g_mm_s2, float(sigma), f.residual,
                          f.parameters)
 
-    return FlightLoop(judged(base), {k: judged(f) for k, f in fits.items()},
-                      float(np.sqrt(verdict.noise2)), len(t), verdict.n_eff / 2,
-                      verdict.delta_bic, verdict.accepted, verdict.look_alikes)
+    return FlightLoop.judged(judged(base), {k: judged(f) for k, f in fits.items()},
+                             verdict, len(t), verdict.n_eff / 2, sigma_mm)
 
 
 def flight_text(loop: FlightLoop, marker: str) -> str:
@@ -248,4 +248,8 @@ def flight_text(loop: FlightLoop, marker: str) -> str:
             lines.append("but " + ", ".join(loop.look_alikes) + " explains the flight as "
                          f"well (ΔBIC within {LOOK_ALIKE_BIC:g}): this flight cannot tell them "
                          "apart, so its g is not settled")
+    if loop.unexplained > UNEXPLAINED:
+        lines.append(f"what is left is {loop.unexplained:.1f}× the tracker's σ "
+                     f"({loop.floor:.3g} mm): something none of these effects holds still "
+                     "bends the flight")
     return "\n".join(lines)

@@ -16,19 +16,29 @@ sinusoid lacks bends its residual; each candidate here is one more parameter:
   with β = 1/(16 L²) for a point bob on a string of length L, so the rate rises as
   the swing dies down;
 - ``drift``: the stand or the camera moves, c + d·t.
+- ``turned plane``: a swing in a plane turned about the vertical by α is nearer the
+  camera on one side: a pinhole sees its place u as u / (1 + τ·u), τ = tan α / f (f
+  the focal length in the track's unit), so one side of the swing looks wider than
+  the other by the factor (1 + τA) / (1 − τA);
+- ``elliptical swing``: a bob that also swings towards and away from the camera, a
+  quarter period on (a spherical pendulum's ellipse), is seen as u / (1 + μ·q), q the
+  place a quarter period on; μ·A is the ellipse's narrow width over the camera's
+  distance.
 
-Judged as :mod:`.flight` judges a flight: the noise is what the closest fit leaves
-(never below the tracker's σ), correlated samples count once per independent
-stretch, an effect is taken at ΔBIC > :data:`.evidence.BIC_THRESHOLD` and those within
-:data:`.evidence.LOOK_ALIKE_BIC` of it are named with it. With a large swing taken,
-the period and g are the small swing's (β's ω₀). Everything is fitted here with
+The last two bend the sinusoid at twice its rate; the first three, slowly. A real
+swing can do several at once (Tracker's pendulum clip: a turned plane and an ellipse),
+so effects are taken one at a time while each lowers the BIC by more than
+:data:`.evidence.BIC_THRESHOLD` (:func:`.evidence.effects_in_turn`). The noise is what
+the closest fit leaves (never below the tracker's σ), correlated samples count once per
+independent stretch, and those within :data:`.evidence.LOOK_ALIKE_BIC` of an effect
+taken are named with it. With a large swing taken, the period and g are the small
+swing's (β's ω₀). Everything is fitted here with
 ``scipy.optimize.least_squares``; the tests draw their swings by integrating the
 pendulum's equation of motion in the test.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -36,7 +46,14 @@ from numpy.typing import NDArray
 from scipy.special import ellipk
 
 from ..errors import CranktrackError
-from .evidence import BIC_THRESHOLD, LOOK_ALIKE_BIC, EffectLoop, one_effect
+from .evidence import (
+    BIC_THRESHOLD,
+    LOOK_ALIKE_BIC,
+    UNEXPLAINED,
+    EffectLoop,
+    combined,
+    effects_in_turn,
+)
 from .flight import solve_model
 
 #: Fewest samples of a swing: two periods at a few frames each, at the least.
@@ -81,7 +98,7 @@ class SwingFit:
         small swing's rate itself. Then ω₀² = ω² + γ² (the undamped rate) times the
         length."""
         w = 2 * np.pi / self.period_s
-        if self.effect != "large swing" and self.envelope.size:
+        if "large swing" not in self.effect.split(" + ") and self.envelope.size:
             theta = np.arcsin(np.clip(np.abs(self.envelope) / length, 0.0, 1.0))
             w *= float(np.mean(2.0 / np.pi * ellipk(np.sin(theta / 2) ** 2)))
         gamma = self.values.get("gamma_per_s", 0.0)
@@ -101,11 +118,20 @@ def _envelope(t: NDArray, a: float, gamma: float, kappa: float = 0.0) -> NDArray
     return a * decay / (1.0 + kappa * a * spent)
 
 
+#: The effects tried, each one more parameter on the damped sinusoid, and the name of
+#: that parameter among a fit's values.
+EFFECTS: dict[str, str] = {"quadratic drag": "kappa", "large swing": "beta",
+                           "drift": "drift_per_s", "turned plane": "turn_per_unit",
+                           "elliptical swing": "across_per_unit"}
+
+
 def _swing(t: NDArray, p: NDArray, kappa: float = 0.0, beta: float = 0.0,
-           drift: float = 0.0) -> NDArray:
+           drift: float = 0.0, turn: float = 0.0, across: float = 0.0) -> NDArray:
     """p = (c, A, γ, ω, φ): the sideways place at ``t`` (s from the first sample). With
     ``beta`` the rate follows the envelope, ω·(1 − β·A(t)²), and the phase is its
-    integral (trapezoids over the samples)."""
+    integral (trapezoids over the samples). The place in the swing's plane, u, is seen
+    as u / (1 + turn·u + across·q), q the quarter-period-on place A(t)·sin(phase): the
+    depth a plane turned to the camera and a swing across it (an ellipse) add."""
     c, a, gamma, w, phi = p[:5]
     amp = _envelope(t, a, gamma, kappa)
     if beta:
@@ -113,7 +139,10 @@ def _swing(t: NDArray, p: NDArray, kappa: float = 0.0, beta: float = 0.0,
         phase = np.r_[0.0, np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(t))]
     else:
         phase = w * t
-    return c + drift * t + amp * np.cos(phase + phi)
+    u = amp * np.cos(phase + phi)
+    if turn or across:
+        u = u / (1.0 + turn * u + across * amp * np.sin(phase + phi))
+    return c + drift * t + u
 
 
 def _start(t: NDArray, x: NDArray) -> NDArray:
@@ -134,7 +163,9 @@ def _start(t: NDArray, x: NDArray) -> NDArray:
 def fit_swing(t_s: NDArray, x: NDArray, sigma: float = 0.0) -> SwingLoop:
     """Fit a pendulum's sideways track ``x`` (any length unit; NaN: not found) at times
     ``t_s`` (s) and close the loop on it; ``sigma`` is the tracker's σ in ``x``'s unit,
-    the floor of the noise.
+    the floor of the noise. Effects are taken one at a time, the one that explains most
+    first (:func:`.evidence.effects_in_turn`): a real swing can turn its plane to the
+    camera and swing across it at once.
 
     Raises
     ------
@@ -157,52 +188,82 @@ def fit_swing(t_s: NDArray, x: NDArray, sigma: float = 0.0) -> SwingLoop:
         raise CranktrackError(f"the track spans {t[-1]:.3g} s, under two swings of the "
                               f"{2 * np.pi / p0[3]:.3g} s it seems to have; track longer")
     keys = ("c", "amplitude", "gamma_per_s", "omega_rad_s", "phase_rad")
-    fits: dict[str, SwingFit] = {}
+    arguments = dict(zip(EFFECTS, ("kappa", "beta", "drift", "turn", "across"), strict=True))
+    fits: dict[tuple[str, ...], SwingFit] = {}
 
-    def add(name: str, model: Callable[[NDArray], NDArray], start: NDArray,
-            extra: tuple[str, ...] = (), bounds: tuple = (-np.inf, np.inf)) -> None:
-        values, residual, cov = solve_model(model, xv[:, None], start, bounds)
+    def fit(on: tuple[str, ...]) -> tuple[NDArray, int]:
+        # Started where the fit with one effect fewer ended (the sinusoid's start for
+        # the base); a new effect from nothing, a drag from just above its bound of 0.
+        start = (p0 if not on else
+                 np.r_[list(fits[on[:-1]].values.values()),
+                       1e-6 if on[-1] == "quadratic drag" else 0.0])
+        low = np.full(start.size, -np.inf)
+        if "quadratic drag" in on:
+            low[5 + on.index("quadratic drag")] = 0.0
+
+        def model(p: NDArray) -> NDArray:
+            return _swing(t, p[:5], **{arguments[e]: v for e, v in zip(on, p[5:],
+                                                                        strict=True)})[:, None]
+
+        values, residual, cov = solve_model(model, xv[:, None], start, (low, np.inf))
         w, sw = values[3], np.sqrt(max(cov[3, 3], 0.0))
-        kappa = values[5] if name == "quadratic drag" else 0.0
-        fits[name] = SwingFit(name, dict(zip((*keys, *extra), map(float, values),
-                                             strict=True)),
-                              float(2 * np.pi / w), float(2 * np.pi * sw / w**2),
-                              residual[:, 0], len(values),
-                              _envelope(t, values[1], values[2], kappa))
+        kappa = values[5 + on.index("quadratic drag")] if "quadratic drag" in on else 0.0
+        fits[on] = SwingFit(combined(on) or "damped",
+                            dict(zip((*keys, *(EFFECTS[e] for e in on)),
+                                     map(float, values), strict=True)),
+                            float(2 * np.pi / w), float(2 * np.pi * sw / w**2),
+                            residual[:, 0], len(values),
+                            _envelope(t, values[1], values[2], kappa))
+        return fits[on].residual, fits[on].parameters
 
-    add("damped", lambda p: _swing(t, p)[:, None], p0)
-    base_values = np.array(list(fits["damped"].values.values()))
-    drag = (np.r_[np.full(5, -np.inf), 0.0], np.full(6, np.inf))
-    add("quadratic drag", lambda p: _swing(t, p[:5], kappa=p[5])[:, None],
-        np.r_[base_values, 1e-6], ("kappa",), bounds=drag)
-    add("large swing", lambda p: _swing(t, p[:5], beta=p[5])[:, None],
-        np.r_[base_values, 0.0], ("beta",))
-    add("drift", lambda p: _swing(t, p[:5], drift=p[5])[:, None], np.r_[base_values, 0.0],
-        ("drift_per_s",))
-
-    base = fits.pop("damped")
-    verdict = one_effect((base.residual, base.parameters),
-                         {k: (f.residual, f.parameters) for k, f in fits.items()}, sigma)
+    verdict = effects_in_turn(fit, tuple(EFFECTS), sigma)
 
     def judged(f: SwingFit) -> SwingFit:
         return SwingFit(f.effect, f.values, f.period_s,
-                        f.period_sigma_s * verdict.sigma_factor, f.residual, f.parameters,
-                        f.envelope)
+                        f.period_sigma_s * verdict.factor(f.residual, f.parameters),
+                        f.residual, f.parameters, f.envelope)
 
-    return SwingLoop(judged(base), {k: judged(f) for k, f in fits.items()},
-                     float(np.sqrt(verdict.noise2)), len(t), verdict.n_eff,
-                     verdict.delta_bic, verdict.accepted, verdict.look_alikes)
+    # Listed: each effect alone, and each fit on the way to those taken.
+    shown = [k for k in fits if len(k) == 1 or (k and k[:-1] == verdict.taken[:len(k) - 1]
+                                                 and len(k) <= len(verdict.taken) + 1)]
+    return SwingLoop.judged(judged(fits[()]), {combined(k): judged(fits[k]) for k in shown},
+                            verdict, len(t), verdict.n_eff, sigma)
+
+
+def effect_said(f: SwingFit) -> str:
+    """What a fit's shape effects say of the swing in words ("" for the others): how
+    much wider one side looks (a turned plane), and the ellipse's width over the
+    camera's distance."""
+    a, said = abs(f.values["amplitude"]), []
+    turn = f.values.get(EFFECTS["turned plane"])
+    if turn is not None and abs(turn * a) < 1:
+        wider = (1 + abs(turn) * a) / (1 - abs(turn) * a) - 1
+        said.append(f"one side of the swing looks {100 * wider:.1f} % wider than the other")
+    across = f.values.get(EFFECTS["elliptical swing"])
+    if across is not None:
+        said.append(f"it swings across by {100 * abs(across) * a:.2g} % of the camera's "
+                    "distance")
+    return "; ".join(said)
 
 
 def swing_text(loop: SwingLoop, marker: str, unit: str, length_mm: float | None = None
                ) -> str:
     """The loop's result for a person: the period (and g, with the string's length in
-    mm) before and after, each candidate's ΔBIC; ``unit`` is the track's."""
+    mm) before and after, each round's candidates and ΔBIC; ``unit`` is the track's."""
     def g_of(f: SwingFit) -> str:
         if length_mm is None:
             return ""
         g, s = f.g(length_mm)
         return f", g = {g / 1e3:.4f} ± {s / 1e3:.4f} m/s²"
+
+    def table(on: tuple[str, ...], dbic: dict[str, float]) -> list[str]:
+        rows = ["candidate         ΔBIC    residual  period (s)",
+                "----------------  ------  --------  --------------------"]
+        for k, d in dbic.items():
+            f = loop.candidates[combined((*on, k))]
+            rows.append(f"{k:<16}  {d:6.1f}  {f.rms:8.3g}  "
+                        f"{f.period_s:.5f} ± {f.period_sigma_s:.5f}{g_of(f)}")
+        return rows
 
     b = loop.base
     lines = [f"{marker} swinging: {loop.samples} samples ({loop.independent:.0f} "
@@ -212,19 +273,29 @@ def swing_text(loop: SwingLoop, marker: str, unit: str, length_mm: float | None 
                 "swing's"),
              f"damped sinusoid: period {b.period_s:.5f} ± {b.period_sigma_s:.5f} s"
              f"{g_of(b)}, residual {b.rms:.3g} {unit} RMS",
-             "candidate        ΔBIC    residual  period (s)",
-             "---------------  ------  --------  --------------------"]
-    for k, f in loop.candidates.items():
-        lines.append(f"{k:<15}  {loop.delta_bic[k]:6.1f}  {f.rms:8.3g}  "
-                     f"{f.period_s:.5f} ± {f.period_sigma_s:.5f}{g_of(f)}")
+             *table((), loop.delta_bic)]
+    taken = loop.accepted.split(" + ") if loop.accepted else []
+    if taken and loop.look_alikes:
+        lines.append(f"taken: {taken[0]}, but " + ", ".join(loop.look_alikes)
+                     + f" explains the swing as well (ΔBIC within {LOOK_ALIKE_BIC:g}): "
+                     "this track cannot tell them apart")
+    for step in loop.later:
+        lines += ["", f"with {combined(step.on)} taken, one more:",
+                  *table(step.on, step.delta_bic)]
+        if step.look_alikes:
+            lines.append(f"taken: {step.taken}, but " + ", ".join(step.look_alikes)
+                         + " explains the swing as well")
     if loop.accepted is None:
         lines.append(f"no effect lowers the BIC by more than {BIC_THRESHOLD:g}: the damped "
                      "sinusoid is enough")
     else:
-        lines.append(f"accepted: {loop.accepted}; residual {b.rms:.3g} → "
-                     f"{loop.final.rms:.3g} {unit}")
-        if loop.look_alikes:
-            lines.append("but " + ", ".join(loop.look_alikes) + " explains the swing as "
-                         f"well (ΔBIC within {LOOK_ALIKE_BIC:g}): this track cannot tell "
-                         "them apart")
+        f = loop.final
+        lines += ["", f"accepted: {loop.accepted}; residual {b.rms:.3g} → {f.rms:.3g} {unit}; "
+                  f"period {f.period_s:.5f} ± {f.period_sigma_s:.5f} s{g_of(f)}"]
+        if effect_said(f):
+            lines.append(effect_said(f))
+    if loop.unexplained > UNEXPLAINED:
+        lines.append(f"what is left is {loop.unexplained:.1f}× the tracker's σ "
+                     f"({loop.floor:.3g} {unit}): something none of these effects holds "
+                     "still bends the swing")
     return "\n".join(lines)

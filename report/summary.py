@@ -133,6 +133,16 @@ def _motion_lines(run: Path, tracks: pd.DataFrame) -> list[str]:
     return lines
 
 
+def _swing_taken(swing: dict, done: str) -> str:
+    """The sentence on the effects ``fit --model pendulum`` took, from ``swing.json``."""
+    final = swing["candidates"][done]
+    g = swing.get("g_mm_s2", {}).get(done)
+    return (f"Accepted, one at a time: {done}; then period {final['period_s']:.5f} ± "
+            f"{final['period_sigma_s']:.5f} s"
+            + (f", g = {g[0] / 1e3:.4f} ± {g[1] / 1e3:.4f} m/s²" if g else "")
+            + f", residual {final['rms']:.3g} {swing['unit']} RMS.")
+
+
 def write_report(run: str | os.PathLike) -> Path:
     """Write ``run/report.md`` (and ``kinematics.png``, or ``tracks.png`` in a run without
     kinematics) from what the run folder holds."""
@@ -234,7 +244,7 @@ def write_report(run: str | os.PathLike) -> Path:
                   + f", residual {base['rms']:.3g} {swing['unit']} RMS over "
                   f"{swing['samples']} samples. "
                   + ("No effect lowers the BIC by more than 20." if done is None else
-                     f"Accepted: {done}."),
+                     _swing_taken(swing, done)),
                   "Details in [fit/swing.json](fit/swing.json)."]
     fit = folder.read_json(f"{FIT_DIR}/{FIT_REPORT_JSON}")
     if fit:

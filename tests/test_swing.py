@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from scipy.integrate import solve_ivp
+from scipy.special import ellipk
 
 from cranktrack.errors import CranktrackError
 from cranktrack.loop.swing import fit_swing, swing_text
@@ -61,15 +62,70 @@ def test_a_wide_swing_s_period_is_taken_back_to_a_small_one_s():
 ])
 def test_what_bends_a_swing_is_named_and_g_is_found_again(effect, kwargs):
     loop = fit_swing(*swing(**kwargs), NOISE)
-    assert effect == loop.accepted or effect in loop.look_alikes, loop.delta_bic
-    g, sigma = loop.candidates[effect].g(L)
-    assert abs(g - G) <= 3 * sigma + 1e-3 * G, (g, sigma)
+    # The effect drawn is taken first; a swing that dies down from 0.2 rad also speeds
+    # up as it narrows, and the loop may take that next.
+    first = (loop.accepted or "").split(" + ")[0]
+    assert effect == first or effect in loop.look_alikes, loop.delta_bic
+    for fit in (loop.candidates[effect], loop.final):
+        g, sigma = fit.g(L)
+        assert abs(g - G) <= 3 * sigma + 1e-3 * G, (fit.effect, g, sigma)
     assert effect in swing_text(loop, "bob", "mm", L)
 
 
 def test_too_short_a_swing_is_refused_in_one_sentence():
     with pytest.raises(CranktrackError, match="under two swings"):
         fit_swing(*swing(0.1, seconds=3.0), NOISE)
+
+
+def seen_swing(theta0: float, across: float, yaw_deg: float, distance: float,
+               focal_px: float, seconds: float = 20.0, fps: float = 30.0, seed: int = 0):
+    """Times (s) and a pinhole camera's image x (px, with noise) of a bob on a sphere
+    (a spherical pendulum, no drag) let go at θ0 (rad) along x, pushed across (along y)
+    so that its ellipse is ``across`` times as narrow as it is wide. The camera is
+    ``distance`` mm from the pivot's vertical, level with it, turned by ``yaw_deg``
+    about the vertical."""
+    t = np.arange(int(seconds * fps)) / fps
+
+    def rate(_, u):
+        r, v = u[:3], u[3:]
+        tension = (v @ v - G * r[2]) / L**2  # keeps |r| = L: r·r'' = −|v|²
+        return np.r_[v, -G * np.array([0.0, 0.0, 1.0]) - tension * r]
+
+    start = np.r_[L * np.sin(theta0), 0.0, -L * np.cos(theta0),
+                  0.0, across * L * np.sin(theta0) * np.sqrt(G / L), 0.0]
+    sol = solve_ivp(rate, (0.0, t[-1]), start, t_eval=t, rtol=1e-11, atol=1e-9,
+                    method="DOP853")
+    x, y = sol.y[0], sol.y[1]
+    yaw = np.radians(yaw_deg)
+    side, depth = x * np.cos(yaw) + y * np.sin(yaw), distance - x * np.sin(yaw) + y * np.cos(yaw)
+    return t, focal_px * side / depth + np.random.default_rng(seed).normal(0, 0.05, t.size)
+
+
+def test_a_swing_turned_to_the_camera_and_across_it_is_found_in_turn():
+    # Tracker's pendulum clip left 2.8 px of a twice-the-rate residual that way, 12× the
+    # tracker's σ, with no one effect explaining it. Here the camera is turned 12° from
+    # the swing's plane and the bob swings across a tenth of its width.
+    theta0, yaw, distance, focal = 0.1, 12.0, 3000.0, 1200.0
+    t, x = seen_swing(theta0, 0.1, yaw, distance, focal)
+    loop = fit_swing(t, x, 0.05)
+    assert set(loop.accepted.split(" + ")[:2]) == {"turned plane", "elliptical swing"}, (
+        loop.delta_bic, loop.later)
+    final = loop.final
+    assert final.rms < 0.1 < loop.base.rms
+    # u / (1 + τ·u): τ is tan(yaw) over the focal length; μ·A the ellipse's narrow
+    # half-width over the distance.
+    assert abs(final.values["turn_per_unit"]) * focal == pytest.approx(
+        np.tan(np.radians(yaw)), rel=0.1)
+    narrow = 0.1 * L * np.sin(theta0)
+    assert abs(final.values["across_per_unit"] * final.values["amplitude"]) == pytest.approx(
+        narrow / distance, rel=0.2)
+    # No drag: the period is a plane swing's of θ0, but for the ellipse's own share:
+    # seen from the side, a turning ellipse runs faster by about (3/8)·θ_across², 4e-5.
+    period = 4 * np.sqrt(L / G) * ellipk(np.sin(theta0 / 2) ** 2)
+    assert abs(final.period_s - period) <= 3 * final.period_sigma_s + 1e-4 * period
+    text = swing_text(loop, "bob", "px")
+    assert "with turned plane taken, one more" in text or "with elliptical swing taken" in text
+    assert "looks" in text and "% wider than the other" in text
 
 
 def swing_angle(theta0: float, seconds: float = 20.0, fps: float = 30.0):
