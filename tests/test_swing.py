@@ -126,6 +126,12 @@ def test_a_swing_turned_to_the_camera_and_across_it_is_found_in_turn():
     text = swing_text(loop, "bob", "px")
     assert "with turned plane taken, one more" in text or "with elliptical swing taken" in text
     assert "looks" in text and "% wider than the other" in text
+    # Each alone is taken alone, and a swing square to the camera in its plane keeps
+    # its sinusoid.
+    for yaw_deg, across, taken in ((yaw, 0.0, "turned plane"),
+                                   (0.0, 0.1, "elliptical swing"), (0.0, 0.0, None)):
+        loop = fit_swing(*seen_swing(theta0, across, yaw_deg, distance, focal), 0.05)
+        assert loop.accepted == taken, (yaw_deg, across, loop.delta_bic, loop.later)
 
 
 def swing_angle(theta0: float, seconds: float = 20.0, fps: float = 30.0):
