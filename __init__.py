@@ -10,7 +10,7 @@ truth) and :mod:`cranktrack.report` (figures, Markdown, the Rerun recording).
 
 #: The Python API (:mod:`cranktrack.api`), loaded on first use so that ``import
 #: cranktrack`` and the command line start without pandas, numba and PyAV.
-_API = ("track", "measure", "open_run", "fit", "flight", "swing", "Fit", "RunResult")
+_API = ("track", "measure", "open_run", "fit", "flight", "swing", "rotation", "Fit", "RunResult")
 
 
 def __getattr__(name: str):

@@ -1,7 +1,7 @@
 """The Python API: what ``cranktrack track`` and ``cranktrack fit`` do, for a notebook.
 
 ``import cranktrack as ct`` gives :func:`track`, :func:`measure`, :func:`open_run`,
-:func:`fit`, :func:`flight` and :func:`swing`.
+:func:`fit`, :func:`flight`, :func:`swing` and :func:`rotation`.
 They write the same run folder as the commands (so ``cranktrack view`` and the
 reports work on it) and hand back DataFrames and a result object. Nothing here
 prints, shows a progress bar or changes matplotlib's backend.
@@ -31,9 +31,11 @@ from .run_folder import FIT_DIR, FIT_TABLE, KINEMATICS, MOTION, TRACKS, run_fold
 if TYPE_CHECKING:
     from .loop.flight import FlightLoop
     from .loop.result import LoopResult
+    from .loop.rotation import RotationLoop
     from .loop.swing import SwingLoop
 
-__all__ = ["Fit", "RunResult", "fit", "flight", "measure", "open_run", "swing", "track"]
+__all__ = ["Fit", "RunResult", "fit", "flight", "measure", "open_run", "rotation", "swing",
+           "track"]
 
 
 def _specs(markers: Mapping[str, str | float] | None):
@@ -276,6 +278,22 @@ def swing(run: RunResult | str | os.PathLike, marker: str, length_mm: float | No
     from .pipeline import fit_swing_run
 
     return fit_swing_run(_folder(run), marker, _seconds(start_s, end_s), length_mm)[0]
+
+
+def rotation(run: RunResult | str | os.PathLike, marker: str, start_s: float | None = None,
+             end_s: float | None = None) -> RotationLoop:
+    """Close the loop on marker ``marker``'s turn about a fixed axis in a run: what
+    ``cranktrack fit RUN --model rotation --marker NAME`` does. The result's ``.base`` is
+    the steady turn (``omega_rad_s`` at the track's middle, counterclockwise positive in
+    the track's axes, and ``omega_sigma_rad_s``), ``.accepted`` the effects taken, one at
+    a time, joined by " + " (None: the steady turn is enough), ``.final`` their fit and
+    ``.candidates`` every fit tried.
+
+    Raises :class:`~cranktrack.errors.CranktrackError` with one sentence on bad input.
+    """
+    from .pipeline import fit_rotation_run
+
+    return fit_rotation_run(_folder(run), marker, _seconds(start_s, end_s))[0]
 
 
 def _folder(run: RunResult | str | os.PathLike) -> Path:

@@ -361,7 +361,8 @@ def _fit_command(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("fit", help="fit a model to a run, find the effect it lacks, report "
                        "before and after")
     p.add_argument("run", help="run folder written by `cranktrack track`")
-    p.add_argument("--model", choices=["spool", "sma", "dynamic", "flight", "pendulum"],
+    p.add_argument("--model", choices=["spool", "sma", "dynamic", "flight", "pendulum",
+                                        "rotation"],
                    default="spool",
                    help="base model (spool: thesis §2.5.2; dynamic: the free response of "
                    "eq. 3.28, e.g. a `synth free` run; sma: the current-heated bed of §2.5.3 "
@@ -370,14 +371,19 @@ def _fit_command(sub: argparse._SubParsersAction) -> None:
                    "parabola, then a rolling shutter, drag or a tilted plane tried; "
                    "pendulum: a bob on a string, --marker NAME: its period (and g with "
                    "--length-mm) from a damped sinusoid, then a quadratic drag, a wide "
-                   "swing's slowing and a drift tried)")
+                   "swing's slowing, a drift, a turned plane and an elliptical swing tried "
+                   "in turn; rotation: a marker on a turning body, --marker NAME: its rate "
+                   "from a steady turn on a circle, then a steady torque, a viscous drag, a "
+                   "tilted view and a moving axis tried in turn)")
     p.add_argument("--marker", metavar="NAME",
-                   help="--model flight or pendulum: the body in flight, or the bob")
+                   help="--model flight, pendulum or rotation: the body in flight, the "
+                   "bob, or the marker on the turning body")
     p.add_argument("--start", type=_time_or_frame, metavar="S|Nf",
-                   help="--model flight or pendulum: the first frame (s, or a frame "
+                   help="--model flight, pendulum or rotation: the first frame (s, or a "
+                   "frame "
                    "number: 8f)")
     p.add_argument("--end", type=_time_or_frame, metavar="S|Nf",
-                   help="--model flight or pendulum: the last frame")
+                   help="--model flight, pendulum or rotation: the last frame")
     p.add_argument("--length-mm", type=_positive, metavar="MM",
                    help="--model pendulum: the string's length, pivot to the bob's centre "
                    "(g from the period)")

@@ -683,18 +683,37 @@ def _fit_swing(args: argparse.Namespace) -> int:
     return 0
 
 
+def _fit_rotation(args: argparse.Namespace) -> int:
+    from .loop.rotation import rotation_text
+    from .pipeline import fit_rotation_run
+    from .run_folder import out_of_date
+
+    if args.known:
+        raise CranktrackError("--known is for the crank-slider's models; a turn has none")
+    if not args.marker:
+        raise CranktrackError("--model rotation needs --marker NAME, the marker on the "
+                              "turning body")
+    _print_warnings(out_of_date(args.run, ["track"]))
+    loop, unit, files = fit_rotation_run(Path(args.run), args.marker,
+                                         _span(args.start, args.end))
+    print(rotation_text(loop, args.marker, unit))
+    print(f"wrote {', '.join(f.name for f in files)} in {Path(args.run)} (fit/ for the "
+          "turn's files)")
+    return 0
+
+
 def cmd_fit(args: argparse.Namespace) -> int:
     from .pipeline import fit_run
 
-    if args.model == "flight":
+    if args.model in ("flight", "rotation"):
         if args.length_mm is not None:
             raise CranktrackError("--length-mm is for --model pendulum")
-        return _fit_flight(args)
+        return _fit_flight(args) if args.model == "flight" else _fit_rotation(args)
     if args.model == "pendulum":
         return _fit_swing(args)
     if args.marker or args.start or args.end or args.length_mm is not None:
         raise CranktrackError("--marker, --start, --end and --length-mm are for --model "
-                              "flight or pendulum")
+                              "flight, pendulum or rotation")
     known = parse_known(args.known, args.model)
     from .report.fit import fit_report
     from .run_folder import out_of_date

@@ -84,6 +84,7 @@ if TYPE_CHECKING:
     from .loop.compare import Comparison
     from .loop.flight import FlightLoop
     from .loop.result import LoopResult
+    from .loop.rotation import RotationLoop
     from .loop.swing import SwingLoop
 
 RUN_SCHEMA = 1
@@ -929,6 +930,50 @@ def fit_swing_run(run: Path, marker: str, span: Span | None = None,
     files.append(write_report(folder.path))
     record_step(folder.path, "fit", [f"{FIT_DIR}/{SWING_TABLE}"], [TRACKS])
     return loop, unit, arc_px, files
+
+
+#: `fit --model rotation`'s files in the run's fit/ folder.
+ROTATION_JSON = "rotation.json"
+ROTATION_TABLE = "rotation.csv"
+
+
+def fit_rotation_run(run: Path, marker: str, span: Span | None = None
+                     ) -> tuple[RotationLoop, str, list[Path]]:
+    """Close the loop on marker ``marker``'s turn about a fixed axis in ``run`` (within
+    ``span``): its rate from a steady turn on a circle, then the effects that lacks
+    (:func:`.loop.rotation.fit_rotation`), in mm with a scale, else in px (a rate needs
+    none). Writes ``fit/rotation.json`` and ``fit/rotation.csv``; returns the loop, the
+    track's unit and the files.
+
+    Raises
+    ------
+    CranktrackError
+        The run has no such marker, or too few fixes or too small a turn in the span.
+    """
+    from .loop.rotation import fit_rotation
+
+    folder = run_folder(run)
+    rows = _marker_rows(folder, marker, span)
+    unit = "mm" if f"{marker}_x_mm" in rows else "px"
+    xy = rows[[f"{marker}_x_{unit}", f"{marker}_y_{unit}"]].to_numpy(float)
+    sigma = rows[f"{marker}_sigma_{unit}"].to_numpy(float)
+    loop = fit_rotation(rows["t_s"].to_numpy(float), xy,
+                        float(np.nanmedian(sigma)) if np.isfinite(sigma).any() else 0.0)
+    out = ensure_dir(folder.fit_dir)
+    table = pd.DataFrame({"frame": rows["frame"].to_numpy(), "t_s": rows["t_s"].to_numpy(),
+                          f"x_{unit}": xy[:, 0], f"y_{unit}": xy[:, 1],
+                          f"circle_dx_{unit}": loop.base.residual[:, 0],
+                          f"circle_dy_{unit}": loop.base.residual[:, 1],
+                          f"final_dx_{unit}": loop.final.residual[:, 0],
+                          f"final_dy_{unit}": loop.final.residual[:, 1]})
+    files = [write_json_atomic(out / ROTATION_JSON, {"marker": marker, "unit": unit,
+                                                      **loop.to_dict()}),
+             write_csv_atomic(out / ROTATION_TABLE, table)]
+    from .report.summary import write_report  # matplotlib: only once fitted
+
+    files.append(write_report(folder.path))
+    record_step(folder.path, "fit", [f"{FIT_DIR}/{ROTATION_TABLE}"], [TRACKS])
+    return loop, unit, files
 
 
 def compare_run(run: Path, known: dict[str, float],

@@ -60,8 +60,10 @@ from cranktrack.calibration.plane import add_plane_coordinates
 from cranktrack.calibration.readout import readout_from_flight, tilted_plane_residual
 from cranktrack.calibration.ruler import Ruler, ruler_calibration
 from cranktrack.environment import versions_line
+from cranktrack.errors import CranktrackError
 from cranktrack.kinematics.motion import marker_motion
 from cranktrack.loop.flight import fit_flight
+from cranktrack.loop.rotation import fit_rotation
 from cranktrack.loop.swing import fit_swing
 from cranktrack.pipeline import track_run
 from cranktrack.tracker.markers import parse_markers
@@ -935,6 +937,25 @@ def rest_second_method(video: Path, pivot: NDArray, frames: NDArray) -> str:
 ARM_MM = 66.0
 
 
+def rotation_line(who: str, t: NDArray, xy: NDArray, sigma: float) -> str:
+    """What `fit --model rotation` (:func:`.loop.rotation.fit_rotation`) makes of a track
+    of the arm's turn (t s, xy px): the effects taken, the residual before and after, and
+    the rate at the track's middle."""
+    try:
+        loop = fit_rotation(t, xy, sigma)
+    except CranktrackError as e:
+        return f"`fit --model rotation` on {who}: {e}"
+    f = loop.final
+    return (f"`fit --model rotation` on {who} ({loop.samples} fixes): a steady turn leaves "
+            f"{loop.base.rms:.3f} px, ω {abs(loop.base.omega_rad_s):.4f} ± "
+            f"{loop.base.omega_sigma_rad_s:.4f} rad/s; takes {loop.accepted or 'no effect'}"
+            f" (ΔBIC {', '.join(f'{k} {v:.0f}' for k, v in loop.delta_bic.items())}): "
+            f"{f.rms:.3f} px left, ω {abs(f.omega_rad_s):.4f} ± {f.omega_sigma_rad_s:.4f} "
+            "rad/s at the middle"
+            + (f", α {f.values['alpha_rad_s2']:+.4f} rad/s²" if "alpha_rad_s2" in f.values
+               else ""))
+
+
 def arm_rate(video: Path, theirs: pd.DataFrame, pivot: NDArray, off: int, last: int) -> None:
     """The product's own kinematics of the arm (``--marker C=none``, the LED as a blob B,
     a 0.2 s window: the one leave-one-out picks is set by the 5 s at rest) against
@@ -1044,6 +1065,8 @@ def run_rover(repo: Path, yupi_python: Path | None, card: Scorecard) -> None:
           f"{np.median(sigma[turn]):.3f} px; aim 50–90 %); lag-1 correlation of the "
           f"residual {np.corrcoef(r[:-1], r[1:])[0, 1]:+.2f} (near +1: the arm's own "
           "wobble or a slow error, not noise)")
+    t_turn = tab["t_s"].to_numpy(float)[turn]
+    print("  " + rotation_line("our LED", t_turn, xy[turn], float(np.median(sigma[turn]))))
     # A second centre made apart from the tracker: where it leaves the same residual
     # against the circle, that residual is the arm's (its wobble), not either centre's.
     other = colour_centroids(video, np.flatnonzero(turn), xy[turn], 1, 10.0, 6)
@@ -1067,6 +1090,9 @@ def run_rover(repo: Path, yupi_python: Path | None, card: Scorecard) -> None:
                   f"({offset[0]:+.2f}, {offset[1]:+.2f}) px, RMS after removing it {rms:.2f} px "
                   f"(aim ≤ 1 px); its own circle over the move leaves "
                   f"{np.sqrt(np.mean(r_peer**2)):.3f} px across it")
+            fps = float(1.0 / np.median(np.diff(tab["t_s"].to_numpy(float))))
+            print("  " + rotation_line("yupi's LED", np.array(peer_turn) / fps,
+                                       theirs.loc[peer_turn].to_numpy(float), 0.0))
             arm_rate(video, theirs, np.median(pivot[rest & pivot_ok], axis=0), off, still)
     else:
         print("  no --yupi-python given: yupi's own track not made")

@@ -330,6 +330,41 @@ def effects_in_turn(fit: Callable[[tuple[str, ...]], tuple[NDArray, int]],
     return Verdict(noise2, n_eff, float(np.sqrt(scale)), tuple(steps))
 
 
+def on_the_way(fitted: list[tuple[str, ...]], taken: tuple[str, ...]
+               ) -> list[tuple[str, ...]]:
+    """Of the effect sets ``fitted`` by :func:`effects_in_turn`, those a loop lists: each
+    effect alone, and each set tried on the way to those ``taken`` (up to the round that
+    took none)."""
+    return [k for k in fitted if len(k) == 1 or (k and k[:-1] == taken[:len(k) - 1]
+                                                 and len(k) <= len(taken) + 1)]
+
+
+def rounds_text(loop: EffectLoop, table: Callable[[tuple[str, ...], dict[str, float]],
+                                                  list[str]], what: str, unit: str
+                ) -> tuple[list[str], list[str]]:
+    """The lines a loop's text shares with every other's (``what``: "the swing", "the
+    turn"; ``table(on, delta_bic)`` a round's rows): after the first round's table, its
+    look-alikes and each later round; and, to close, what is left where that is over
+    :data:`UNEXPLAINED` times the tracker's σ (in ``unit``)."""
+    rounds = []
+    if loop.accepted and loop.look_alikes:
+        rounds.append(f"taken: {loop.accepted.split(' + ')[0]}, but "
+                      + ", ".join(loop.look_alikes) + f" explains {what} as well (ΔBIC "
+                      f"within {LOOK_ALIKE_BIC:g}): this track cannot tell them apart")
+    for step in loop.later:
+        rounds += ["", f"with {combined(step.on)} taken, one more:",
+                   *table(step.on, step.delta_bic)]
+        if step.look_alikes:
+            rounds.append(f"taken: {step.taken}, but " + ", ".join(step.look_alikes)
+                          + f" explains {what} as well")
+    left = []
+    if loop.unexplained > UNEXPLAINED:
+        left.append(f"what is left is {loop.unexplained:.1f}× the tracker's σ "
+                    f"({loop.floor:.3g} {unit}): something none of these effects holds "
+                    f"still bends {what}")
+    return rounds, left
+
+
 def one_effect(base: tuple[NDArray, int], candidates: dict[str, tuple[NDArray, int]],
                floor: float) -> Verdict:
     """:func:`effects_in_turn` with one effect at most, of ``candidates`` fitted

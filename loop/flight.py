@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from ..calibration.readout import flight_fixes
-from .evidence import BIC_THRESHOLD, LOOK_ALIKE_BIC, UNEXPLAINED, EffectLoop, one_effect
+from .evidence import BIC_THRESHOLD, LOOK_ALIKE_BIC, EffectLoop, one_effect, rounds_text
 
 #: Fewest fixes of a flight: the parabola's six parameters, a candidate's two and a few
 #: to judge them by.
@@ -248,8 +248,4 @@ def flight_text(loop: FlightLoop, marker: str) -> str:
             lines.append("but " + ", ".join(loop.look_alikes) + " explains the flight as "
                          f"well (ΔBIC within {LOOK_ALIKE_BIC:g}): this flight cannot tell them "
                          "apart, so its g is not settled")
-    if loop.unexplained > UNEXPLAINED:
-        lines.append(f"what is left is {loop.unexplained:.1f}× the tracker's σ "
-                     f"({loop.floor:.3g} mm): something none of these effects holds still "
-                     "bends the flight")
-    return "\n".join(lines)
+    return "\n".join(lines + rounds_text(loop, lambda on, d: [], "the flight", "mm")[1])

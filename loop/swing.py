@@ -48,11 +48,11 @@ from scipy.special import ellipk
 from ..errors import CranktrackError
 from .evidence import (
     BIC_THRESHOLD,
-    LOOK_ALIKE_BIC,
-    UNEXPLAINED,
     EffectLoop,
     combined,
     effects_in_turn,
+    on_the_way,
+    rounds_text,
 )
 from .flight import solve_model
 
@@ -223,10 +223,8 @@ def fit_swing(t_s: NDArray, x: NDArray, sigma: float = 0.0) -> SwingLoop:
                         f.period_sigma_s * verdict.factor(f.residual, f.parameters),
                         f.residual, f.parameters, f.envelope)
 
-    # Listed: each effect alone, and each fit on the way to those taken.
-    shown = [k for k in fits if len(k) == 1 or (k and k[:-1] == verdict.taken[:len(k) - 1]
-                                                 and len(k) <= len(verdict.taken) + 1)]
-    return SwingLoop.judged(judged(fits[()]), {combined(k): judged(fits[k]) for k in shown},
+    return SwingLoop.judged(judged(fits[()]), {combined(k): judged(fits[k])
+                                               for k in on_the_way(list(fits), verdict.taken)},
                             verdict, len(t), verdict.n_eff, sigma)
 
 
@@ -274,17 +272,8 @@ def swing_text(loop: SwingLoop, marker: str, unit: str, length_mm: float | None 
              f"damped sinusoid: period {b.period_s:.5f} ± {b.period_sigma_s:.5f} s"
              f"{g_of(b)}, residual {b.rms:.3g} {unit} RMS",
              *table((), loop.delta_bic)]
-    taken = loop.accepted.split(" + ") if loop.accepted else []
-    if taken and loop.look_alikes:
-        lines.append(f"taken: {taken[0]}, but " + ", ".join(loop.look_alikes)
-                     + f" explains the swing as well (ΔBIC within {LOOK_ALIKE_BIC:g}): "
-                     "this track cannot tell them apart")
-    for step in loop.later:
-        lines += ["", f"with {combined(step.on)} taken, one more:",
-                  *table(step.on, step.delta_bic)]
-        if step.look_alikes:
-            lines.append(f"taken: {step.taken}, but " + ", ".join(step.look_alikes)
-                         + " explains the swing as well")
+    rounds, left = rounds_text(loop, table, "the swing", unit)
+    lines += rounds
     if loop.accepted is None:
         lines.append(f"no effect lowers the BIC by more than {BIC_THRESHOLD:g}: the damped "
                      "sinusoid is enough")
@@ -294,8 +283,4 @@ def swing_text(loop: SwingLoop, marker: str, unit: str, length_mm: float | None 
                   f"period {f.period_s:.5f} ± {f.period_sigma_s:.5f} s{g_of(f)}"]
         if effect_said(f):
             lines.append(effect_said(f))
-    if loop.unexplained > UNEXPLAINED:
-        lines.append(f"what is left is {loop.unexplained:.1f}× the tracker's σ "
-                     f"({loop.floor:.3g} {unit}): something none of these effects holds "
-                     "still bends the swing")
-    return "\n".join(lines)
+    return "\n".join(lines + left)

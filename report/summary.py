@@ -246,6 +246,20 @@ def write_report(run: str | os.PathLike) -> Path:
                   + ("No effect lowers the BIC by more than 20." if done is None else
                      _swing_taken(swing, done)),
                   "Details in [fit/swing.json](fit/swing.json)."]
+    turn = folder.read_json(f"{FIT_DIR}/rotation.json")
+    if turn:
+        base, done = turn["base"], turn["accepted"]
+        lines += ["", f"## Turn of {turn['marker']} (`fit --model rotation`)", "",
+                  f"Steady turn on a circle: ω = {abs(base['omega_rad_s']):.5g} ± "
+                  f"{base['omega_sigma_rad_s']:.2g} rad/s at the track's middle, residual "
+                  f"{base['rms']:.3g} {turn['unit']} RMS per axis over {turn['samples']} "
+                  "fixes. "
+                  + ("No effect lowers the BIC by more than 20." if done is None else
+                     f"Accepted, one at a time: {done}; then ω = "
+                     f"{abs(turn['candidates'][done]['omega_rad_s']):.5g} ± "
+                     f"{turn['candidates'][done]['omega_sigma_rad_s']:.2g} rad/s, residual "
+                     f"{turn['candidates'][done]['rms']:.3g} {turn['unit']}."),
+                  "Details in [fit/rotation.json](fit/rotation.json)."]
     fit = folder.read_json(f"{FIT_DIR}/{FIT_REPORT_JSON}")
     if fit:
         effects = ", ".join(fit["effects"]) or "none"

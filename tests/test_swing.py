@@ -186,6 +186,6 @@ def test_the_command_fits_a_tracked_swing(tmp_path, capsys):
                         "a pendulum takes --length-mm"),
                        (["--model", "flight", "--marker", "bob", "--length-mm", "3"],
                         "--length-mm is for --model pendulum"),
-                       (["--length-mm", "3"], "are for --model flight or pendulum")):
+                       (["--length-mm", "3"], "are for --model flight, pendulum or rotation")):
         assert main(["fit", str(run), *args]) != 0
         assert says in capsys.readouterr().err
