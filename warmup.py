@@ -77,4 +77,9 @@ def compile_kernels() -> list[str]:
                "L2_mm": bed.L2, "theta0_deg": bed.theta0_deg,
                "recovery_strain": bed.recovery_strain, "coulomb_Nm": 0.01}, t)
     done.append("SMA fit model (with dry friction)")
+    from .loop.flight import _dragged
+
+    _dragged(np.linspace(-0.1, 0.1, 5), np.array([0.0, 0.0, 1.0, 1.0, 0.0, -9810.0]), 0.1,
+             1e-4)
+    done.append("a flight through air")
     return done

@@ -263,7 +263,13 @@ def flight_line(tracks: pd.DataFrame, name: str, ruler: Ruler, size: tuple[int, 
             f"{loop.delta_bic['quadratic drag']:.0f}; with the shutter a readout of "
             f"{shutter.values['readout_ms']:.2f} ms and g = {shutter.g_mm_s2 / 1e3:.3f} ± "
             f"{shutter.g_sigma_mm_s2 / 1e3:.3f} m/s², the parabola's "
-            f"{loop.base.g_mm_s2 / 1e3:.3f} ± {loop.base.g_sigma_mm_s2 / 1e3:.3f}")
+            f"{loop.base.g_mm_s2 / 1e3:.3f} ± {loop.base.g_sigma_mm_s2 / 1e3:.3f}; with "
+            f"what it takes, {loop.final.rms_mm:.3f} mm left (the parabola "
+            f"{loop.base.rms_mm:.3f}) and g = {loop.final.g_mm_s2 / 1e3:.3f} ± "
+            f"{loop.final.g_sigma_mm_s2 / 1e3:.3f} m/s² "
+            f"({100 * (loop.final.g_mm_s2 / 9800 - 1):+.1f} %)"
+            + (f"; then {', '.join(f'{k} {v:.0f}' for k, v in loop.later[0].delta_bic.items())}"
+               if loop.later else ""))
 
 
 def stick_divisions(video: Path, fps: float | None, ends: NDArray, per_m: int = 10

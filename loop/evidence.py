@@ -289,7 +289,8 @@ def effects_in_turn(fit: Callable[[tuple[str, ...]], tuple[NDArray, int]],
     unit), its correlated samples counted once per independent stretch (the fewest on
     any axis, times the axes). The base's own residual, where an effect bends it, is no
     noise: its samples would count as one. In each round the others within
-    :data:`LOOK_ALIKE_BIC` of the one taken are named with it.
+    :data:`LOOK_ALIKE_BIC` of the one taken, or leaving no more than it, are named with
+    it.
     """
     most = len(names) if most is None else min(most, len(names))
     fits = {(): fit(())}
@@ -320,8 +321,14 @@ def effects_in_turn(fit: Callable[[tuple[str, ...]], tuple[NDArray, int]],
                 for k in fits if len(k) == len(on) + 1 and k[:-1] == on}
         best = max(dbic, key=dbic.get)
         taken = best if dbic[best] > BIC_THRESHOLD else None
+
+        # Alike: within LOOK_ALIKE_BIC of the one taken, or leaving no more than it with
+        # more parameters (a flight's plane turned to the camera fits a little better
+        # than a linear drag, and loses only the price of its second parameter).
         alike = tuple(k for k, v in dbic.items()
-                      if taken is not None and k != best and dbic[best] - v <= LOOK_ALIKE_BIC)
+                      if taken is not None and k != best
+                      and (dbic[best] - v <= LOOK_ALIKE_BIC
+                           or np.sum(fits[(*on, k)][0] ** 2) <= np.sum(fits[(*on, best)][0] ** 2)))
         steps.append(Step(on, dbic, taken, alike))
         # A round's ΔBIC ranks as its residuals do when its effects have as many
         # parameters; where one with more wins on ΔBIC, nothing was fitted on top of it.
@@ -339,18 +346,34 @@ def on_the_way(fitted: list[tuple[str, ...]], taken: tuple[str, ...]
                                                  and len(k) <= len(taken) + 1)]
 
 
-def rounds_text(loop: EffectLoop, table: Callable[[tuple[str, ...], dict[str, float]],
-                                                  list[str]], what: str, unit: str
-                ) -> tuple[list[str], list[str]]:
+def round_table(loop: EffectLoop, on: tuple[str, ...], delta_bic: dict[str, float],
+                heading: str, figures: Callable[[Any], str]) -> list[str]:
+    """A round's candidates as a table: each effect added to ``on``, its ΔBIC and
+    ``figures(fit)`` under ``heading``."""
+    width = max(len("candidate"), *map(len, delta_bic))
+    rows = [f"{'candidate':<{width}}  ΔBIC    {heading}",
+            f"{'-' * width}  ------  {'-' * len(heading)}"]
+    for k, d in delta_bic.items():
+        rows.append(f"{k:<{width}}  {d:6.1f}  {figures(loop.candidates[combined((*on, k))])}")
+    return rows
+
+
+def rounds_text(loop: EffectLoop, heading: str, figures: Callable[[Any], str], what: str,
+                unit: str) -> tuple[list[str], list[str]]:
     """The lines a loop's text shares with every other's (``what``: "the swing", "the
-    turn"; ``table(on, delta_bic)`` a round's rows): after the first round's table, its
-    look-alikes and each later round; and, to close, what is left where that is over
-    :data:`UNEXPLAINED` times the tracker's σ (in ``unit``)."""
-    rounds = []
+    turn"; each round a :func:`round_table` of ``heading`` and ``figures``): the first
+    round's table, its look-alikes and each later round; and, to close, what is left
+    where that is over :data:`UNEXPLAINED` times the tracker's σ (in ``unit``)."""
+
+    def table(on: tuple[str, ...], dbic: dict[str, float]) -> list[str]:
+        return round_table(loop, on, dbic, heading, figures)
+
+    rounds = table((), loop.delta_bic)
     if loop.accepted and loop.look_alikes:
         rounds.append(f"taken: {loop.accepted.split(' + ')[0]}, but "
                       + ", ".join(loop.look_alikes) + f" explains {what} as well (ΔBIC "
-                      f"within {LOOK_ALIKE_BIC:g}): this track cannot tell them apart")
+                      f"within {LOOK_ALIKE_BIC:g}, or as close a fit with more parameters): "
+                      "this track cannot tell them apart")
     for step in loop.later:
         rounds += ["", f"with {combined(step.on)} taken, one more:",
                    *table(step.on, step.delta_bic)]

@@ -10,15 +10,20 @@ more parameter (or two) on the parabola:
 - ``linear drag``: a pull against the velocity, ``a − b·v`` with b ≥ 0 (slow, small
   bodies).
 - ``quadratic drag``: ``a − k·|v|·v`` with k ≥ 0 (a ball through air at speed).
-- ``tilted plane``: a flight in a plane turned towards or away from the camera is a
-  parabola seen through a homography (both axes over one shared quadratic); its g
-  cannot be read without the tilt, so it only says the bend is perspective's.
+- ``tilted plane``: a flight in a plane turned towards or away from the camera is
+  nearer it on one side, so a pinhole sees the place P as P_m + (P − P_m) / (1 +
+  h·(P − P_m)), P_m the place at the flight's middle (two more, h). The ruler's scale
+  is taken to hold there, the same assumption the parabola makes everywhere, so g is
+  read at the flight's middle.
 
-The base fit's residual sets the noise (never below the tracker's σ) and how many of
-the fixes are independent (:func:`.evidence.effective_samples`); a candidate is
-accepted when it lowers the BIC by more than :data:`.evidence.BIC_THRESHOLD`, and
-candidates within :data:`.evidence.LOOK_ALIKE_BIC` of the best are named with it: one
-flight cannot tell them apart. One effect is added at most.
+The effects compose: each is a change to the time (the shutter), the motion (the
+drags, together by RK4) or the view (the tilt). They are taken one at a time, the one
+that explains most first, while each lowers the BIC by more than
+:data:`.evidence.BIC_THRESHOLD` (:func:`.evidence.effects_in_turn`); the noise is what
+the closest fit leaves (never below the tracker's σ), correlated fixes counted once per
+independent stretch (:func:`.evidence.effective_samples`), and those within
+:data:`.evidence.LOOK_ALIKE_BIC` of an effect taken are named with it: that flight
+cannot tell them apart.
 
 All fits are made here with ``scipy.optimize.least_squares``; the tests draw their
 flights from the equations above, written in the tests.
@@ -30,11 +35,19 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from ..calibration.readout import flight_fixes
-from .evidence import BIC_THRESHOLD, LOOK_ALIKE_BIC, EffectLoop, one_effect, rounds_text
+from .evidence import (
+    BIC_THRESHOLD,
+    EffectLoop,
+    combined,
+    effects_in_turn,
+    on_the_way,
+    rounds_text,
+)
 
 #: Fewest fixes of a flight: the parabola's six parameters, a candidate's two and a few
 #: to judge them by.
@@ -76,55 +89,85 @@ class FlightLoop(EffectLoop):
     per axis, the samples its fixes)."""
 
 
+#: The effects tried, and the names of their parameters among a fit's values.
+EFFECTS: dict[str, tuple[str, ...]] = {"rolling shutter": ("readout_ms",),
+                                       "linear drag": ("b_per_s",),
+                                       "quadratic drag": ("k_per_mm",),
+                                       "tilted plane": ("hx_per_m", "hy_per_m")}
+
+
 def _quadratic(tc: NDArray, p: NDArray) -> NDArray:
     """p = (x0, y0, vx, vy, ax, ay): positions (n, 2) at centred times ``tc``."""
     return np.c_[p[0] + p[2] * tc + 0.5 * p[4] * tc**2, p[1] + p[3] * tc + 0.5 * p[5] * tc**2]
 
 
-def _linear_drag(tc: NDArray, p: NDArray) -> NDArray:
-    """p = (x0, y0, vx, vy, ax, ay, b) at tc = 0: dv/dt = a − b·v, solved exactly."""
-    a, v0, b = p[4:6], p[2:4], p[6]
+def _linear_drag(tc: NDArray, p: NDArray, b: float) -> NDArray:
+    """p = (x0, y0, vx, vy, ax, ay) at tc = 0: dv/dt = a − b·v, solved exactly."""
+    a, v0 = p[4:6], p[2:4]
     if b == 0:
-        return _quadratic(tc, p[:6])
+        return _quadratic(tc, p)
     # Expanded near b = 0 through expm1, so a weak drag keeps its precision.
     decay = -np.expm1(-b * tc)  # 1 − e^{−b·t}
     drift = (tc - decay / b) / b  # (t − (1 − e^{−bt})/b)/b → t²/2 as b → 0
     return np.c_[p[0] + v0[0] * decay / b + a[0] * drift, p[1] + v0[1] * decay / b + a[1] * drift]
 
 
-def _quadratic_drag(tc: NDArray, p: NDArray) -> NDArray:
-    """p = (x0, y0, vx, vy, ax, ay, k) at tc = 0: dv/dt = a − k·|v|·v, by RK4 from the
-    middle of the flight outwards."""
-    a, k = p[4:6], p[6]
-
-    def rate(v: NDArray) -> NDArray:
-        return a - k * np.hypot(*v) * v
-
+@njit(cache=True, nogil=True)
+def _dragged_compiled(tc: NDArray, p: NDArray, b: float, k: float, substeps: int
+                      ) -> NDArray:  # pragma: no cover - compiled
     out = np.empty((tc.size, 2))
     start = int(np.argmin(np.abs(tc)))
     for direction in (1, -1):
-        x, v, t = np.array(p[0:2], float), np.array(p[2:4], float), 0.0
-        # Carried from tc = 0 to the fix nearest it, then fix to fix.
-        idx = range(start, tc.size) if direction > 0 else range(start, -1, -1)
-        for i in idx:
-            h = (tc[i] - t) / DRAG_SUBSTEPS
-            for _ in range(DRAG_SUBSTEPS):
-                k1v, k1x = rate(v), v
-                k2v, k2x = rate(v + 0.5 * h * k1v), v + 0.5 * h * k1v
-                k3v, k3x = rate(v + 0.5 * h * k2v), v + 0.5 * h * k2v
-                k4v, k4x = rate(v + h * k3v), v + h * k3v
-                x = x + h / 6 * (k1x + 2 * k2x + 2 * k3x + k4x)
-                v = v + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v)
+        x0, x1, v0, v1, t = p[0], p[1], p[2], p[3], 0.0
+        i = start
+        while 0 <= i < tc.size:
+            h = (tc[i] - t) / substeps
+            for _ in range(substeps):
+                # RK4 on (x, v) with dv/dt = a − b·v − k·|v|·v.
+                s = np.hypot(v0, v1)
+                a0, a1 = p[4] - (b + k * s) * v0, p[5] - (b + k * s) * v1
+                w0, w1 = v0 + 0.5 * h * a0, v1 + 0.5 * h * a1
+                s = np.hypot(w0, w1)
+                b0, b1 = p[4] - (b + k * s) * w0, p[5] - (b + k * s) * w1
+                u0, u1 = v0 + 0.5 * h * b0, v1 + 0.5 * h * b1
+                s = np.hypot(u0, u1)
+                c0, c1 = p[4] - (b + k * s) * u0, p[5] - (b + k * s) * u1
+                z0, z1 = v0 + h * c0, v1 + h * c1
+                s = np.hypot(z0, z1)
+                d0, d1 = p[4] - (b + k * s) * z0, p[5] - (b + k * s) * z1
+                x0 += h / 6 * (v0 + 2 * w0 + 2 * u0 + z0)
+                x1 += h / 6 * (v1 + 2 * w1 + 2 * u1 + z1)
+                v0 += h / 6 * (a0 + 2 * b0 + 2 * c0 + d0)
+                v1 += h / 6 * (a1 + 2 * b1 + 2 * c1 + d1)
             t = tc[i]
-            out[i] = x
+            out[i, 0], out[i, 1] = x0, x1
+            i += direction
     return out
 
 
-def _tilted(tc: NDArray, p: NDArray) -> NDArray:
-    """p = 3 + 3 quadratic coefficients over 1 + p6·t + p7·t²: a parabola in a plane
-    seen through a homography."""
-    r = 1.0 + p[6] * tc + p[7] * tc**2
-    return np.c_[p[0] + p[1] * tc + p[2] * tc**2, p[3] + p[4] * tc + p[5] * tc**2] / r[:, None]
+def _dragged(tc: NDArray, p: NDArray, b: float, k: float) -> NDArray:
+    """p = (x0, y0, vx, vy, ax, ay) at tc = 0: dv/dt = a − b·v − k·|v|·v, by RK4
+    (:data:`DRAG_SUBSTEPS` steps between fixes) from the middle of the flight outwards,
+    to each fix's time in whatever order they come. Compiled: a least-squares fit runs
+    it hundreds of times."""
+    return _dragged_compiled(np.ascontiguousarray(tc, dtype=np.float64),
+                             np.ascontiguousarray(p[:6], dtype=np.float64), float(b), float(k),
+                             DRAG_SUBSTEPS)
+
+
+def _flight(tc: NDArray, p: NDArray, on: tuple[str, ...], share: NDArray) -> NDArray:
+    """p = the parabola's six (at tc = 0), then each effect's parameters in ``on``'s
+    order: the places (n, 2) mm seen at centred frame times ``tc`` (s), ``share`` each
+    fix's row over the frame's height (for the shutter)."""
+    got = dict(zip([k for e in on for k in EFFECTS[e]], p[6:], strict=True))
+    t = tc + 1e-3 * got.get("readout_ms", 0.0) * share
+    b, k = got.get("b_per_s", 0.0), got.get("k_per_mm", 0.0)
+    seen = _dragged(t, p, b, k) if k else _linear_drag(t, p, b)
+    if "tilted plane" in on:
+        h = 1e-3 * np.array([got["hx_per_m"], got["hy_per_m"]])
+        d = seen - p[0:2]
+        seen = p[0:2] + d / (1.0 + d @ h)[:, None]
+    return seen
 
 
 def _g(values: NDArray, cov: NDArray, ia: int = 4) -> tuple[float, float]:
@@ -171,39 +214,36 @@ def fit_flight(t_s: NDArray, xy_mm: NDArray, row_px: NDArray, height_px: int,
     c = np.linalg.lstsq(X, xy, rcond=None)[0]  # rows: t², t, 1
     start = np.r_[c[2], c[1], 2 * c[0]]
 
-    fits: dict[str, FlightFit] = {}
-
-    def add(name: str, model: Callable[[NDArray], NDArray], p0: NDArray, keys: tuple[str, ...],
-            has_g: bool = True, bounds: tuple = (-np.inf, np.inf)) -> None:
-        values, residual, unit_cov = solve_model(model, xy, p0, bounds)
-        g, g_unit = _g(values, unit_cov) if has_g else (float("nan"), float("nan"))
-        fits[name] = FlightFit(name, dict(zip(keys, map(float, values), strict=True)), g,
-                               g_unit, residual, len(values))
-
-    base_keys = ("x0_mm", "y0_mm", "vx_mm_s", "vy_mm_s", "ax_mm_s2", "ay_mm_s2")
-    add("parabola", lambda p: _quadratic(tc, p), start, base_keys)
-    # The readout in ms over the frame's rows (a parameter of order one, so that the
-    # finite differences of its Jacobian are sound), within one frame interval.
     share = rows / max(height_px, 1)
+    # The readout in ms over the frame's rows (a parameter of order one, so that the
+    # finite differences of its Jacobian are sound), within one frame interval. A drag
+    # pulls against the motion: b, k ≥ 0 (on Tracker's toss, left free, both went
+    # negative, a push, to mimic the bend a tilted plane gives), started off zero: at 0
+    # the model is the parabola itself, flat in them.
     reach = 1e3 * step
-    add("rolling shutter", lambda p: _quadratic(tc + 1e-3 * p[6] * share, p[:6]),
-        np.r_[start, 0.0], (*base_keys, "readout_ms"),
-        bounds=(np.r_[np.full(6, -np.inf), -reach], np.r_[np.full(6, np.inf), reach]))
-    # A drag pulls against the motion: b, k ≥ 0 (on Tracker's toss, left free, both went
-    # negative, a push, to mimic the bend a tilted plane gives). Started off zero: at
-    # b = 0 the model is the parabola itself, flat in b.
-    drag = (np.r_[np.full(6, -np.inf), 0.0], np.full(7, np.inf))
-    add("linear drag", lambda p: _linear_drag(tc, p), np.r_[start, 1e-2],
-        (*base_keys, "b_per_s"), bounds=drag)
-    add("quadratic drag", lambda p: _quadratic_drag(tc, p), np.r_[start, 1e-8],
-        (*base_keys, "k_per_mm"), bounds=drag)
-    add("tilted plane", lambda p: _tilted(tc, p),
-        np.r_[c[2, 0], c[1, 0], c[0, 0], c[2, 1], c[1, 1], c[0, 1], 0.0, 0.0],
-        ("px0", "px1", "px2", "py0", "py1", "py2", "r1", "r2"), has_g=False)
+    bounds = {"readout_ms": (-reach, reach), "b_per_s": (0.0, np.inf),
+              "k_per_mm": (0.0, np.inf)}
+    first = {"readout_ms": 0.0, "b_per_s": 1e-2, "k_per_mm": 1e-8, "hx_per_m": 0.0,
+             "hy_per_m": 0.0}
+    base_keys = ("x0_mm", "y0_mm", "vx_mm_s", "vy_mm_s", "ax_mm_s2", "ay_mm_s2")
+    fits: dict[tuple[str, ...], FlightFit] = {}
 
-    base = fits.pop("parabola")
-    verdict = one_effect((base.residual, base.parameters),
-                         {k: (f.residual, f.parameters) for k, f in fits.items()}, sigma_mm)
+    def fit(on: tuple[str, ...]) -> tuple[NDArray, int]:
+        keys = [k for e in on for k in EFFECTS[e]]
+        # Started where the fit with one effect fewer ended.
+        p0 = (np.r_[list(fits[on[:-1]].values.values()), [first[k] for k in EFFECTS[on[-1]]]]
+              if on else start)
+        low = np.r_[np.full(6, -np.inf), [bounds.get(k, (-np.inf,))[0] for k in keys]]
+        high = np.r_[np.full(6, np.inf), [bounds.get(k, (0, np.inf))[1] for k in keys]]
+        values, residual, unit_cov = solve_model(lambda p: _flight(tc, p, on, share), xy, p0,
+                                                 (low, high))
+        g, g_unit = _g(values, unit_cov)
+        fits[on] = FlightFit(combined(on) or "parabola",
+                             dict(zip((*base_keys, *keys), map(float, values), strict=True)),
+                             g, g_unit, residual, len(values))
+        return residual, len(values)
+
+    verdict = effects_in_turn(fit, tuple(EFFECTS), sigma_mm)
 
     def judged(f: FlightFit) -> FlightFit:
         """``f`` with g's σ under that noise, and the scale's."""
@@ -212,40 +252,40 @@ def fit_flight(t_s: NDArray, xy_mm: NDArray, row_px: NDArray, height_px: int,
         return FlightFit(f.effect, f.values, f.g_mm_s2, float(sigma), f.residual,
                          f.parameters)
 
-    return FlightLoop.judged(judged(base), {k: judged(f) for k, f in fits.items()},
+    return FlightLoop.judged(judged(fits[()]),
+                             {combined(k): judged(fits[k])
+                              for k in on_the_way(list(fits), verdict.taken)},
                              verdict, len(t), verdict.n_eff / 2, sigma_mm)
 
 
 def flight_text(loop: FlightLoop, marker: str) -> str:
-    """The loop's result for a person: g before and after, each candidate's ΔBIC."""
+    """The loop's result for a person: g before and after, each round's candidates and
+    ΔBIC."""
     b = loop.base
     lines = [f"{marker} in free flight: {loop.samples} fixes ({loop.independent:.0f} "
              f"independent), noise {loop.noise:.3g} mm per axis",
              f"parabola: g = {b.g_mm_s2 / 1e3:.4f} ± {b.g_sigma_mm_s2 / 1e3:.4f} m/s², "
-             f"residual {b.rms_mm:.3g} mm RMS",
-             "candidate        ΔBIC    residual (mm)  g (m/s²)",
-             "---------------  ------  -------------  ------------------"]
-    for k, f in loop.candidates.items():
-        g = ("(no g: needs the tilt)" if not np.isfinite(f.g_mm_s2)
-             else f"{f.g_mm_s2 / 1e3:.4f} ± {f.g_sigma_mm_s2 / 1e3:.4f}")
-        lines.append(f"{k:<15}  {loop.delta_bic[k]:6.1f}  {f.rms_mm:13.3g}  {g}")
+             f"residual {b.rms_mm:.3g} mm RMS"]
+    rounds, left = rounds_text(
+        loop, "residual (mm)  g (m/s²)",
+        lambda f: f"{f.rms_mm:13.3g}  {f.g_mm_s2 / 1e3:.4f} ± {f.g_sigma_mm_s2 / 1e3:.4f}",
+        "the flight", "mm")
+    lines += rounds
     if loop.accepted is None:
         lines.append(f"no effect lowers the BIC by more than {BIC_THRESHOLD:g}: the parabola "
                      "is enough")
     else:
         f = loop.final
-        said = f"accepted: {loop.accepted}"
-        if loop.accepted == "rolling shutter":
-            said += f" (a readout of {f.values['readout_ms']:.2f} ms)"
-        lines.append(said + f"; residual {b.rms_mm:.3g} → {f.rms_mm:.3g} mm")
-        if not np.isfinite(f.g_mm_s2):
-            gs = [c.g_mm_s2 / 1e3 for c in loop.candidates.values() if np.isfinite(c.g_mm_s2)
-                  and loop.delta_bic[c.effect] > BIC_THRESHOLD]
-            if gs:
-                lines.append(f"a tilted plane's g needs its tilt; the other effects accepted "
-                             f"on their own give g = {min(gs):.4f}–{max(gs):.4f} m/s²")
+        lines += ["", f"accepted: {loop.accepted}; residual {b.rms_mm:.3g} → {f.rms_mm:.3g} "
+                  f"mm; g = {f.g_mm_s2 / 1e3:.4f} ± {f.g_sigma_mm_s2 / 1e3:.4f} m/s²"]
+        if "readout_ms" in f.values:
+            lines.append(f"a readout of {f.values['readout_ms']:.2f} ms over the frame's rows")
+        if "hx_per_m" in f.values:
+            lines.append("the flight's plane is turned to the camera: g is read where the "
+                         "flight is at its middle, and the ruler's scale is taken to hold "
+                         "there")
         if loop.look_alikes:
-            lines.append("but " + ", ".join(loop.look_alikes) + " explains the flight as "
-                         f"well (ΔBIC within {LOOK_ALIKE_BIC:g}): this flight cannot tell them "
-                         "apart, so its g is not settled")
-    return "\n".join(lines + rounds_text(loop, lambda on, d: [], "the flight", "mm")[1])
+            lines.append("so g is not settled: the look-alikes above give "
+                         + ", ".join(f"{loop.candidates[k].g_mm_s2 / 1e3:.4f}"
+                                     for k in loop.look_alikes) + " m/s²")
+    return "\n".join(lines + left)

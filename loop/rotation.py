@@ -238,22 +238,15 @@ def rotation_text(loop: RotationLoop, marker: str, unit: str) -> str:
     the picture is the other way round from the track's axes)."""
     y_down = unit == "px"
 
-    def table(on: tuple[str, ...], dbic: dict[str, float]) -> list[str]:
-        rows = ["candidate       ΔBIC    residual  ω (rad/s)",
-                "--------------  ------  --------  ------------------"]
-        for k, d in dbic.items():
-            f = loop.candidates[combined((*on, k))]
-            rows.append(f"{k:<14}  {d:6.1f}  {f.rms:8.3g}  "
-                        f"{abs(f.omega_rad_s):.5g} ± {f.omega_sigma_rad_s:.2g}")
-        return rows
-
     b = loop.base
     lines = [f"{marker} turning: {loop.samples} fixes ({loop.independent:.0f} independent), "
              f"noise {loop.noise:.3g} {unit} per axis",
              f"steady turn on a circle of radius {b.values['radius']:.4g} {unit}: "
-             f"{_said(b, y_down)}, residual {b.rms:.3g} {unit} RMS",
-             *table((), loop.delta_bic)]
-    rounds, left = rounds_text(loop, table, "the turn", unit)
+             f"{_said(b, y_down)}, residual {b.rms:.3g} {unit} RMS"]
+    rounds, left = rounds_text(
+        loop, "residual  ω (rad/s)",
+        lambda f: f"{f.rms:8.3g}  {abs(f.omega_rad_s):.5g} ± {f.omega_sigma_rad_s:.2g}",
+        "the turn", unit)
     lines += rounds
     if loop.accepted is None:
         lines.append(f"no effect lowers the BIC by more than {BIC_THRESHOLD:g}: the steady "

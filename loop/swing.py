@@ -254,15 +254,6 @@ def swing_text(loop: SwingLoop, marker: str, unit: str, length_mm: float | None 
         g, s = f.g(length_mm)
         return f", g = {g / 1e3:.4f} ± {s / 1e3:.4f} m/s²"
 
-    def table(on: tuple[str, ...], dbic: dict[str, float]) -> list[str]:
-        rows = ["candidate         ΔBIC    residual  period (s)",
-                "----------------  ------  --------  --------------------"]
-        for k, d in dbic.items():
-            f = loop.candidates[combined((*on, k))]
-            rows.append(f"{k:<16}  {d:6.1f}  {f.rms:8.3g}  "
-                        f"{f.period_s:.5f} ± {f.period_sigma_s:.5f}{g_of(f)}")
-        return rows
-
     b = loop.base
     lines = [f"{marker} swinging: {loop.samples} samples ({loop.independent:.0f} "
              f"independent), noise {loop.noise:.3g} {unit}"
@@ -270,9 +261,11 @@ def swing_text(loop: SwingLoop, marker: str, unit: str, length_mm: float | None 
                 "; with no scale or arc its width is not known, so g is a small "
                 "swing's"),
              f"damped sinusoid: period {b.period_s:.5f} ± {b.period_sigma_s:.5f} s"
-             f"{g_of(b)}, residual {b.rms:.3g} {unit} RMS",
-             *table((), loop.delta_bic)]
-    rounds, left = rounds_text(loop, table, "the swing", unit)
+             f"{g_of(b)}, residual {b.rms:.3g} {unit} RMS"]
+    rounds, left = rounds_text(
+        loop, "residual  period (s)",
+        lambda f: f"{f.rms:8.3g}  {f.period_s:.5f} ± {f.period_sigma_s:.5f}{g_of(f)}",
+        "the swing", unit)
     lines += rounds
     if loop.accepted is None:
         lines.append(f"no effect lowers the BIC by more than {BIC_THRESHOLD:g}: the damped "
