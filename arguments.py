@@ -368,7 +368,7 @@ def _fit_command(sub: argparse._SubParsersAction) -> None:
                    "eq. 3.28, e.g. a `synth free` run; sma: the current-heated bed of §2.5.3 "
                    "with the heat model of chapter 4, e.g. a `synth sma` run; flight: a body "
                    "tossed or dropped, --marker NAME, in a run with a scale: g from a "
-                   "parabola, then a rolling shutter, drag or a tilted plane tried; "
+                   "parabola, then a rolling shutter, drags and a turned plane tried in turn; "
                    "pendulum: a bob on a string, --marker NAME: its period (and g with "
                    "--length-mm) from a damped sinusoid, then a quadratic drag, a wide "
                    "swing's slowing, a drift, a turned plane and an elliptical swing tried "

@@ -223,7 +223,8 @@ def combined(effects: tuple[str, ...]) -> str:
 
 @dataclass(frozen=True)
 class EffectLoop:
-    """What an effect loop on a track found (:mod:`.flight`, :mod:`.swing`): the base
+    """What an effect loop on a track found (:mod:`.flight`, :mod:`.swing`,
+    :mod:`.rotation`): the base
     model's fit, each candidate's (one effect each, under its name, and those with more,
     under :func:`combined` names), the noise it judged them by (the track's unit), the
     samples and how many are independent, each single effect's ΔBIC against the base,
@@ -386,15 +387,6 @@ def rounds_text(loop: EffectLoop, heading: str, figures: Callable[[Any], str], w
                     f"({loop.floor:.3g} {unit}): something none of these effects holds "
                     f"still bends {what}")
     return rounds, left
-
-
-def one_effect(base: tuple[NDArray, int], candidates: dict[str, tuple[NDArray, int]],
-               floor: float) -> Verdict:
-    """:func:`effects_in_turn` with one effect at most, of ``candidates`` fitted
-    already (name → residual (n, axes) and its number of parameters) against ``base``
-    (the same for the base model)."""
-    return effects_in_turn(lambda on: candidates[on[0]] if on else base,
-                           tuple(candidates), floor, most=1)
 
 
 def ljung_box_p(residual: NDArray[np.float64], lags: int | None = None) -> float:
