@@ -498,7 +498,8 @@ def cmd_inspect(args: argparse.Namespace) -> int:
             print("(for mm, each marker's velocity and acceleration, and g from a flight "
                   "(`cranktrack fit RUN --model flight --marker NAME`), add --ruler "
                   "X1,Y1,X2,Y2=MM: the ends of a known length in this picture, px, and "
-                  "that length)")
+                  "that length; a swing's period and a turning marker's rate need none: "
+                  "`--model pendulum` or `--model rotation`)")
         if sequence and not args.fps:
             print(f"({video.name} is one of {sequence} numbered pictures: the command tracks "
                   "their folder; FPS is the rate they were taken at)")

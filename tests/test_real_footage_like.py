@@ -175,6 +175,7 @@ def test_inspect_lists_each_marker_with_a_marker_option_that_tracks_it(tmp_path,
     assert "white@60,91" in out and f"cranktrack track '{frames}' --fps 10 " in out
     assert ":blob after its colour" in out  # no rig of printed discs: how to name one
     assert "add --ruler X1,Y1,X2,Y2=MM" in out  # and how to have mm for them
+    assert "--model rotation" in out  # and what needs none
     assert (tmp_path / "s.png").stat().st_size > 1000
     # ...and that command works as printed (a folder of pictures needs its --fps).
     command = next(line for line in out.splitlines() if "cranktrack track" in line)
