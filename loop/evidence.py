@@ -216,6 +216,21 @@ class Verdict:
         return float(np.sqrt(max(own, self.noise2) * r.size / min(n_eff, self.n_eff)))
 
 
+@dataclass(frozen=True)
+class EffectFit:
+    """What every fit an effect loop makes has: its name (:func:`combined`, or the base
+    model's) and values. Each loop's fit adds its figures, then ``residual`` (n, axes)
+    in the track's unit and ``parameters``."""
+
+    effect: str
+    values: dict[str, float]
+
+    @property
+    def rms(self) -> float:
+        """RMS of the residual per axis, the track's unit."""
+        return float(np.sqrt(np.mean(self.residual**2)))
+
+
 def combined(effects: tuple[str, ...]) -> str:
     """The name of a model with ``effects`` on its base, as a loop lists it."""
     return " + ".join(effects)
@@ -360,11 +375,14 @@ def round_table(loop: EffectLoop, on: tuple[str, ...], delta_bic: dict[str, floa
 
 
 def rounds_text(loop: EffectLoop, heading: str, figures: Callable[[Any], str], what: str,
-                unit: str) -> tuple[list[str], list[str]]:
+                unit: str, base: str, taken: Callable[[Any], str]
+                ) -> tuple[list[str], list[str]]:
     """The lines a loop's text shares with every other's (``what``: "the swing", "the
     turn"; each round a :func:`round_table` of ``heading`` and ``figures``): the first
-    round's table, its look-alikes and each later round; and, to close, what is left
-    where that is over :data:`UNEXPLAINED` times the tracker's σ (in ``unit``)."""
+    round's table, its look-alikes and each later round, then the verdict (``base``,
+    "the parabola", is enough; or what was accepted, the residual before and after and
+    ``taken(final fit)``); and, to close, what is left where that is over
+    :data:`UNEXPLAINED` times the tracker's σ (in ``unit``)."""
 
     def table(on: tuple[str, ...], dbic: dict[str, float]) -> list[str]:
         return round_table(loop, on, dbic, heading, figures)
@@ -381,6 +399,12 @@ def rounds_text(loop: EffectLoop, heading: str, figures: Callable[[Any], str], w
         if step.look_alikes:
             rounds.append(f"taken: {step.taken}, but " + ", ".join(step.look_alikes)
                           + f" explains {what} as well")
+    if loop.accepted is None:
+        rounds.append(f"no effect lowers the BIC by more than {BIC_THRESHOLD:g}: {base} "
+                      "is enough")
+    else:
+        rounds += ["", f"accepted: {loop.accepted}; residual {loop.base.rms:.3g} → "
+                   f"{loop.final.rms:.3g} {unit}; {taken(loop.final)}"]
     left = []
     if loop.unexplained > UNEXPLAINED:
         left.append(f"what is left is {loop.unexplained:.1f}× the tracker's σ "

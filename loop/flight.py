@@ -32,7 +32,7 @@ flights from the equations above, written in the tests.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numba import njit
@@ -41,7 +41,7 @@ from scipy.optimize import least_squares
 
 from ..calibration.readout import flight_fixes
 from .evidence import (
-    BIC_THRESHOLD,
+    EffectFit,
     EffectLoop,
     combined,
     effects_in_turn,
@@ -58,25 +58,19 @@ DRAG_SUBSTEPS = 4
 
 
 @dataclass(frozen=True)
-class FlightFit:
-    """One model fitted to a flight: its name, values (mm, s), the 1-σ of g (mm/s², NaN
-    where the model has no g), the residual (n, 2) mm and the number of parameters."""
+class FlightFit(EffectFit):
+    """One model fitted to a flight (:class:`.evidence.EffectFit`; values in mm, s): g
+    and its 1-σ (mm/s²), the residual (n, 2) mm and the number of parameters."""
 
-    effect: str
-    values: dict[str, float]
     g_mm_s2: float
     g_sigma_mm_s2: float
     residual: NDArray[np.float64] = field(repr=False)
     parameters: int
 
     @property
-    def rss(self) -> float:
-        return float(np.sum(self.residual**2))
-
-    @property
     def rms_mm(self) -> float:
         """RMS per axis, mm."""
-        return float(np.sqrt(np.mean(self.residual**2)))
+        return self.rms
 
     def to_dict(self) -> dict:
         return {"values": self.values, "g_mm_s2": self.g_mm_s2,
@@ -249,8 +243,7 @@ def fit_flight(t_s: NDArray, xy_mm: NDArray, row_px: NDArray, height_px: int,
         """``f`` with g's σ under that noise, and the scale's."""
         sigma = np.hypot(f.g_sigma_mm_s2 * verdict.factor(f.residual, f.parameters),
                          f.g_mm_s2 * scale_sigma)
-        return FlightFit(f.effect, f.values, f.g_mm_s2, float(sigma), f.residual,
-                         f.parameters)
+        return replace(f, g_sigma_mm_s2=float(sigma))
 
     return FlightLoop.judged(judged(fits[()]),
                              {combined(k): judged(fits[k])
@@ -269,15 +262,11 @@ def flight_text(loop: FlightLoop, marker: str) -> str:
     rounds, left = rounds_text(
         loop, "residual (mm)  g (m/s²)",
         lambda f: f"{f.rms_mm:13.3g}  {f.g_mm_s2 / 1e3:.4f} ± {f.g_sigma_mm_s2 / 1e3:.4f}",
-        "the flight", "mm")
+        "the flight", "mm", "the parabola",
+        lambda f: f"g = {f.g_mm_s2 / 1e3:.4f} ± {f.g_sigma_mm_s2 / 1e3:.4f} m/s²")
     lines += rounds
-    if loop.accepted is None:
-        lines.append(f"no effect lowers the BIC by more than {BIC_THRESHOLD:g}: the parabola "
-                     "is enough")
-    else:
+    if loop.accepted is not None:
         f = loop.final
-        lines += ["", f"accepted: {loop.accepted}; residual {b.rms_mm:.3g} → {f.rms_mm:.3g} "
-                  f"mm; g = {f.g_mm_s2 / 1e3:.4f} ± {f.g_sigma_mm_s2 / 1e3:.4f} m/s²"]
         if "readout_ms" in f.values:
             lines.append(f"a readout of {f.values['readout_ms']:.2f} ms over the frame's rows")
         if "hx_per_m" in f.values:

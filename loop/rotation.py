@@ -30,14 +30,14 @@ turns by integrating a wheel's equation of motion in the test.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import CranktrackError
 from .evidence import (
-    BIC_THRESHOLD,
+    EffectFit,
     EffectLoop,
     combined,
     effects_in_turn,
@@ -62,23 +62,16 @@ EFFECTS: dict[str, tuple[str, ...]] = {
 
 
 @dataclass(frozen=True)
-class RotationFit:
-    """One model fitted to a turn: its name, values (the track's unit, rad, s), the rate
-    ω at the track's middle (rad/s, counterclockwise positive in the track's own axes)
-    and its 1-σ, the residual (n, 2) in the track's unit and the number of
-    parameters."""
+class RotationFit(EffectFit):
+    """One model fitted to a turn (:class:`.evidence.EffectFit`; values in the track's
+    unit, rad, s): the rate ω at the track's middle (rad/s, counterclockwise positive in
+    the track's own axes) and its 1-σ, the residual (n, 2) in the track's unit and the
+    number of parameters."""
 
-    effect: str
-    values: dict[str, float]
     omega_rad_s: float
     omega_sigma_rad_s: float
     residual: NDArray[np.float64] = field(repr=False)
     parameters: int
-
-    @property
-    def rms(self) -> float:
-        """RMS per axis, the track's unit."""
-        return float(np.sqrt(np.mean(self.residual**2)))
 
     @property
     def narrow_over_wide(self) -> float:
@@ -212,9 +205,8 @@ def fit_rotation(t_s: NDArray, xy: NDArray, sigma: float = 0.0) -> RotationLoop:
     verdict = effects_in_turn(fit, tuple(EFFECTS), sigma)
 
     def judged(f: RotationFit) -> RotationFit:
-        return RotationFit(f.effect, f.values, f.omega_rad_s,
-                           f.omega_sigma_rad_s * verdict.factor(f.residual, f.parameters),
-                           f.residual, f.parameters)
+        return replace(f, omega_sigma_rad_s=f.omega_sigma_rad_s
+                       * verdict.factor(f.residual, f.parameters))
 
     return RotationLoop.judged(judged(fits[()]),
                                {combined(k): judged(fits[k])
@@ -246,23 +238,18 @@ def rotation_text(loop: RotationLoop, marker: str, unit: str) -> str:
     rounds, left = rounds_text(
         loop, "residual  ω (rad/s)",
         lambda f: f"{f.rms:8.3g}  {abs(f.omega_rad_s):.5g} ± {f.omega_sigma_rad_s:.2g}",
-        "the turn", unit)
+        "the turn", unit, "the steady turn",
+        lambda f: f"{_said(f, y_down)} at the track's middle")
     lines += rounds
-    if loop.accepted is None:
-        lines.append(f"no effect lowers the BIC by more than {BIC_THRESHOLD:g}: the steady "
-                     "turn is enough")
-    else:
-        f = loop.final
-        lines += ["", f"accepted: {loop.accepted}; residual {b.rms:.3g} → {f.rms:.3g} {unit}; "
-                  f"{_said(f, y_down)} at the track's middle"]
-        v = f.values
+    if loop.accepted is not None:
+        v = loop.final.values
         if "alpha_rad_s2" in v:
             lines.append(f"the rate changes by {v['alpha_rad_s2']:+.4g} rad/s² (a steady "
                          "torque over the body's moment of inertia)")
         if "lambda_per_s" in v and v["lambda_per_s"] > 0:
             lines.append(f"the rate falls as e^(−t/{1 / v['lambda_per_s']:.4g} s)")
         if "tilt_a" in v:
-            k = f.narrow_over_wide
+            k = loop.final.narrow_over_wide
             lines.append(f"seen as an ellipse {k:.4f} as narrow as it is wide: the body's "
                          f"plane is turned {np.degrees(np.arccos(min(k, 1.0))):.1f}° to the "
                          "camera")

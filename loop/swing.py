@@ -39,7 +39,7 @@ pendulum's equation of motion in the test.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -47,7 +47,7 @@ from scipy.special import ellipk
 
 from ..errors import CranktrackError
 from .evidence import (
-    BIC_THRESHOLD,
+    EffectFit,
     EffectLoop,
     combined,
     effects_in_turn,
@@ -61,12 +61,10 @@ MIN_SAMPLES = 20
 
 
 @dataclass(frozen=True)
-class SwingFit:
-    """One model fitted to a swing: its name, values (the track's unit, s), the period
-    (s) and its 1-σ, the residual and the number of parameters."""
+class SwingFit(EffectFit):
+    """One model fitted to a swing (:class:`.evidence.EffectFit`; values in the track's
+    unit, s): the period (s) and its 1-σ, the residual and the number of parameters."""
 
-    effect: str
-    values: dict[str, float]
     period_s: float
     period_sigma_s: float
     residual: NDArray[np.float64] = field(repr=False)
@@ -74,14 +72,6 @@ class SwingFit:
     #: The swing's amplitude at each sample (the track's unit), for the period of a wide
     #: swing.
     envelope: NDArray[np.float64] = field(repr=False, default_factory=lambda: np.empty(0))
-
-    @property
-    def rss(self) -> float:
-        return float(np.sum(self.residual**2))
-
-    @property
-    def rms(self) -> float:
-        return float(np.sqrt(np.mean(self.residual**2)))
 
     def to_dict(self) -> dict:
         return {"values": self.values, "period_s": self.period_s,
@@ -219,9 +209,8 @@ def fit_swing(t_s: NDArray, x: NDArray, sigma: float = 0.0) -> SwingLoop:
     verdict = effects_in_turn(fit, tuple(EFFECTS), sigma)
 
     def judged(f: SwingFit) -> SwingFit:
-        return SwingFit(f.effect, f.values, f.period_s,
-                        f.period_sigma_s * verdict.factor(f.residual, f.parameters),
-                        f.residual, f.parameters, f.envelope)
+        return replace(f, period_sigma_s=f.period_sigma_s
+                       * verdict.factor(f.residual, f.parameters))
 
     return SwingLoop.judged(judged(fits[()]), {combined(k): judged(fits[k])
                                                for k in on_the_way(list(fits), verdict.taken)},
@@ -265,15 +254,9 @@ def swing_text(loop: SwingLoop, marker: str, unit: str, length_mm: float | None 
     rounds, left = rounds_text(
         loop, "residual  period (s)",
         lambda f: f"{f.rms:8.3g}  {f.period_s:.5f} ± {f.period_sigma_s:.5f}{g_of(f)}",
-        "the swing", unit)
+        "the swing", unit, "the damped sinusoid",
+        lambda f: f"period {f.period_s:.5f} ± {f.period_sigma_s:.5f} s{g_of(f)}")
     lines += rounds
-    if loop.accepted is None:
-        lines.append(f"no effect lowers the BIC by more than {BIC_THRESHOLD:g}: the damped "
-                     "sinusoid is enough")
-    else:
-        f = loop.final
-        lines += ["", f"accepted: {loop.accepted}; residual {b.rms:.3g} → {f.rms:.3g} {unit}; "
-                  f"period {f.period_s:.5f} ± {f.period_sigma_s:.5f} s{g_of(f)}"]
-        if effect_said(f):
-            lines.append(effect_said(f))
+    if loop.accepted is not None and effect_said(loop.final):
+        lines.append(effect_said(loop.final))
     return "\n".join(lines + left)
