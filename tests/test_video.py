@@ -302,6 +302,29 @@ def test_an_avi_cut_short_is_called_truncated_though_its_pictures_fill_what_is_l
     assert not any("not cut short" in p for p in src.problems)
 
 
+def test_a_clip_trimmed_by_an_edit_list_is_not_called_truncated(tmp_path):
+    # A clip trimmed in a phone's gallery, or cut by a stream copy, keeps the pictures
+    # before its new start, stamped before 0, and an edit list that hides them: the
+    # container lists them, FFmpeg drops them. A pendulum clip of bartekpacia/pendulum
+    # lists 2057 and shows 1844, and was called "truncated or damaged".
+    path = tmp_path / "trimmed.mp4"
+    with av.open(str(path), "w") as out:
+        stream = out.add_stream("libx264", rate=30)
+        stream.width, stream.height, stream.pix_fmt = 64, 48, "yuv420p"
+        for k in range(60):
+            f = _grey(k)
+            f.pts, f.time_base = k - 20, fractions.Fraction(1, 30)
+            for packet in stream.encode(f):
+                out.mux(packet)
+        for packet in stream.encode():
+            out.mux(packet)
+    src = open_frames(path)
+    t = [f.t_s for f in src.frames()]
+    assert src.expected_frames == 60 and len(t) == 40  # 20 hidden by the edit list
+    np.testing.assert_allclose(t, np.arange(40) / 30, atol=1e-3)
+    assert src.problems == []
+
+
 def _pictures(folder, names, values=None):
     folder.mkdir(exist_ok=True)
     for k, name in enumerate(names):

@@ -484,6 +484,7 @@ class FrameSource:
         times: list[float] = []
         first_t, last_t = float("nan"), float("nan")
         resized: list[tuple[int, tuple[int, int]]] = []  # frames not of the video's size
+        trimmed = 0  # pictures listed outside what the file shows (:meth:`_outside_the_edit`)
 
         def sized(frame: Frame) -> Iterator[Frame]:
             """The frame, unless it is not the video's size: a recording that changed its
@@ -532,6 +533,7 @@ class FrameSource:
                     self.problems.append(f"reading stopped after frame {index + len(pending) - 1}"
                                          f": the file is damaged from there on ({e.strerror})")
                     break
+                trimmed += self._outside_the_edit(packet)
                 try:
                     decoded = packet.decode()
                 except av.FFmpegError:
@@ -565,7 +567,9 @@ class FrameSource:
                 f"the container's timestamps are in decoding order, not display order "
                 f"({reordered} of {index} frames carried another frame's time): each frame "
                 "was given the times in display order")
-        if self.expected_frames and index + len(set(skipped)) < self.expected_frames:
+        per_picture = 2 if self.fields else 1
+        if self.expected_frames \
+                and index + len(set(skipped)) + per_picture * trimmed < self.expected_frames:
             # The container's duration runs to the end of the last picture's interval.
             # A file cut short keeps its header's frame count, but FFmpeg may take its
             # duration from the pictures left (OpenCV's vtest.avi cut to 2 MB: 795
@@ -585,6 +589,18 @@ class FrameSource:
                     f"the video ends after frame {index - 1} although its index lists "
                     f"{self.expected_frames} frames: it is truncated or damaged; the tracks "
                     "up to there are kept")
+
+    def _outside_the_edit(self, packet: av.Packet) -> bool:
+        """Does ``packet`` hold a picture the file does not show: one stamped before its
+        clock's start or at or after its duration's end? A clip trimmed in a phone's
+        gallery or by a stream copy keeps the pictures it cut, with an edit list that
+        hides them; FFmpeg decodes and drops them, players never show them, and the
+        container still counts them (a pendulum clip of bartekpacia/pendulum: 2057
+        listed, 212 before its start and one after its end, 1844 shown)."""
+        if packet.pts is None or not packet.time_base or not packet.size:
+            return False
+        t = float(packet.pts * packet.time_base - self.clock_start) * self.time_scale
+        return t < 0.0 or (self.duration_s is not None and t >= self.duration_s)
 
     def _image_frames(self) -> Iterator[Frame]:
         fps = self.nominal_fps or 1.0
