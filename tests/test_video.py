@@ -256,15 +256,17 @@ def test_b_frames_stored_with_decoding_order_times_get_display_order_times(
     assert any("decoding order" in p for p in src.problems) == pts_in_decoding_order
 
 
-def _mjpeg_avi(path, shown, rate: int = 15):
-    """An MJPEG AVI at ``rate`` fps holding a grey picture at each frame slot of
-    ``shown`` (the slots between list no picture of their own)."""
+def _mjpeg_avi(path, shown, rate: int = 15, codec: str = "mjpeg", first: int = 0):
+    """An MJPEG AVI (or ``codec`` in ``path``'s container) at ``rate`` fps holding a grey
+    picture at each frame slot of ``shown`` (the slots between list no picture of their
+    own), the first stamped at slot ``first``."""
     with av.open(str(path), "w") as out:
-        stream = out.add_stream("mjpeg", rate=rate)
-        stream.width, stream.height, stream.pix_fmt = 64, 48, "yuvj420p"
+        stream = out.add_stream(codec, rate=rate)
+        stream.width, stream.height = 64, 48
+        stream.pix_fmt = "yuvj420p" if codec == "mjpeg" else "yuv420p"
         for k in shown:
             f = _grey(k)
-            f.pts, f.time_base = k, fractions.Fraction(1, rate)
+            f.pts, f.time_base = k + first, fractions.Fraction(1, rate)
             for packet in stream.encode(f):
                 out.mux(packet)
         for packet in stream.encode():
@@ -307,17 +309,7 @@ def test_a_clip_trimmed_by_an_edit_list_is_not_called_truncated(tmp_path):
     # before its new start, stamped before 0, and an edit list that hides them: the
     # container lists them, FFmpeg drops them. A pendulum clip of bartekpacia/pendulum
     # lists 2057 and shows 1844, and was called "truncated or damaged".
-    path = tmp_path / "trimmed.mp4"
-    with av.open(str(path), "w") as out:
-        stream = out.add_stream("libx264", rate=30)
-        stream.width, stream.height, stream.pix_fmt = 64, 48, "yuv420p"
-        for k in range(60):
-            f = _grey(k)
-            f.pts, f.time_base = k - 20, fractions.Fraction(1, 30)
-            for packet in stream.encode(f):
-                out.mux(packet)
-        for packet in stream.encode():
-            out.mux(packet)
+    path = _mjpeg_avi(tmp_path / "trimmed.mp4", range(60), 30, "libx264", first=-20)
     src = open_frames(path)
     t = [f.t_s for f in src.frames()]
     assert src.expected_frames == 60 and len(t) == 40  # 20 hidden by the edit list
