@@ -18,7 +18,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
-from numpy.typing import NDArray
 
 from .calibration.file import load_calibration, save_calibration
 from .calibration.known_length import calibrate_known_length, check_length
@@ -774,26 +773,6 @@ def fit_run(run: Path, model: str, known: dict[str, float],
     return result, files
 
 
-#: The bob's path is taken for an arc about a pivot when the circle through it has a
-#: radius whose 1-σ is under this share of it.
-ARC_RADIUS_REL_SIGMA = 0.2
-
-
-def _arc_radius(xy: NDArray) -> float | None:
-    """The radius (px) of the circle through a bob's path ``xy`` (n, 2 px), or None where
-    the path is too straight or short for one (its radius's σ over
-    :data:`ARC_RADIUS_REL_SIGMA` of it, or the centre below the path: a pivot hangs
-    above its bob, image y down)."""
-    from .tracker.outline import fit_circle
-
-    p, cov, _ = fit_circle(xy)
-    if not (np.all(np.isfinite(p)) and np.isfinite(cov[2, 2]) and p[2] > 0):
-        return None
-    if np.sqrt(max(cov[2, 2], 0.0)) > ARC_RADIUS_REL_SIGMA * p[2] or p[1] > np.mean(xy[:, 1]):
-        return None
-    return float(p[2])
-
-
 def _marker_rows(folder: RunFolder, marker: str, span: Span | None) -> pd.DataFrame:
     """The rows of ``folder``'s tracks where ``marker`` was found, within ``span`` (frames
     or s; None: all). Refuses a marker the run does not have."""
@@ -881,7 +860,7 @@ def fit_swing_run(run: Path, marker: str, span: Span | None = None,
     CranktrackError
         The run has no such marker, or too short a swing in the span.
     """
-    from .loop.swing import fit_swing
+    from .loop.swing import arc_radius, fit_swing
 
     if length_mm is not None and not (np.isfinite(length_mm) and length_mm > 0):
         raise CranktrackError(f"--length-mm {length_mm:g} is not a positive length")
@@ -896,14 +875,18 @@ def fit_swing_run(run: Path, marker: str, span: Span | None = None,
     centred = xy - xy.mean(axis=0)
     along = np.linalg.svd(centred, full_matrices=False)[2][0]
     sigma = rows[f"{marker}_sigma_{unit}"].to_numpy(float)
+    # The string's length in the track's unit bounds a wide swing's slowing: the length
+    # given where the track is in mm, else the radius of the circle through the bob's
+    # path, about the pivot.
+    arc = arc_radius(xy) if unit == "px" else None
     loop = fit_swing(rows["t_s"].to_numpy(float), centred @ along,
-                     float(np.nanmedian(sigma)) if np.isfinite(sigma).any() else 0.0)
+                     float(np.nanmedian(sigma)) if np.isfinite(sigma).any() else 0.0,
+                     length_mm if unit == "mm" and length_mm is not None else arc)
     arc_px = None
     if unit == "px":
         # Without a scale the swing's angle is its width over the radius of its arc, both
-        # in px: the circle through the bob's path, about the pivot. Where that circle is
-        # not found, the wide-swing correction is left out.
-        arc_px = _arc_radius(xy)
+        # in px. Where that circle is not found, the wide-swing correction is left out.
+        arc_px = arc
         mm_per_px = (0.0 if arc_px is None or length_mm is None
                      else length_mm / arc_px)
 

@@ -133,7 +133,7 @@ def main() -> None:
                 run(f"{clip.trz} ({found.video.name})", found.video, found.fps, [clip.marker],
                     args.seeds)
     if args.pendulum is not None and args.pendulum.exists():
-        name, marker, _ = real_footage.PENDULUM
+        name, marker = real_footage.PENDULUM.name, real_footage.PENDULUM.marker
         video = real_footage._extract(args.pendulum, name, folder="")
         if video is not None:
             run(name, video, None, [marker], args.seeds)

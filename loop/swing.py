@@ -46,6 +46,7 @@ from numpy.typing import NDArray
 from scipy.special import ellipk
 
 from ..errors import CranktrackError
+from ..tracker.outline import fit_circle
 from .evidence import (
     EffectFit,
     EffectLoop,
@@ -150,12 +151,41 @@ def _start(t: NDArray, x: NDArray) -> NDArray:
     return np.array([c, np.hypot(a, b), 0.0, w, np.arctan2(-b, a)])
 
 
-def fit_swing(t_s: NDArray, x: NDArray, sigma: float = 0.0) -> SwingLoop:
+#: With the string's length L known, a ``large swing``'s β is held within the β of a
+#: string this many times longer and shorter than L: β = 1/(16 L²) is geometry, not a
+#: free slope. On a real clip (bartekpacia/pendulum) a free β took a 0.3 % rise of the
+#: rate over 30 s, as the swing narrowed by 15 %, for a swing on a 153 px string, where
+#: the bob's path is an arc of 600 px: a period 1.6 % short and g 3 % high.
+LENGTH_BAND = 1.5
+
+
+#: The bob's path is taken for an arc about a pivot when the circle through it has a
+#: radius whose 1-σ is under this share of it.
+ARC_RADIUS_REL_SIGMA = 0.2
+
+
+def arc_radius(xy: NDArray) -> float | None:
+    """The radius (px) of the circle through a bob's path ``xy`` (n, 2 px), or None where
+    the path is too straight or short for one (its radius's σ over
+    :data:`ARC_RADIUS_REL_SIGMA` of it, or the centre below the path: a pivot hangs
+    above its bob, image y down)."""
+    p, cov, _ = fit_circle(xy)
+    if not (np.all(np.isfinite(p)) and np.isfinite(cov[2, 2]) and p[2] > 0):
+        return None
+    if np.sqrt(max(cov[2, 2], 0.0)) > ARC_RADIUS_REL_SIGMA * p[2] or p[1] > np.mean(xy[:, 1]):
+        return None
+    return float(p[2])
+
+
+def fit_swing(t_s: NDArray, x: NDArray, sigma: float = 0.0, length: float | None = None
+              ) -> SwingLoop:
     """Fit a pendulum's sideways track ``x`` (any length unit; NaN: not found) at times
     ``t_s`` (s) and close the loop on it; ``sigma`` is the tracker's σ in ``x``'s unit,
     the floor of the noise. Effects are taken one at a time, the one that explains most
     first (:func:`.evidence.effects_in_turn`): a real swing can turn its plane to the
-    camera and swing across it at once.
+    camera and swing across it at once. ``length``: the string's length in ``x``'s unit
+    (pivot to bob) where it is known, which bounds a wide swing's β
+    (:data:`LENGTH_BAND`).
 
     Raises
     ------
@@ -174,6 +204,8 @@ def fit_swing(t_s: NDArray, x: NDArray, sigma: float = 0.0) -> SwingLoop:
         raise CranktrackError("the samples' times do not advance from frame to frame")
     t = t - t[0]
     p0 = _start(t, xv)
+    if length is not None and not (np.isfinite(length) and length > 0):
+        raise CranktrackError(f"a string of length {length:g} is not a positive length")
     if not 2 * 2 * np.pi / p0[3] <= t[-1]:
         raise CranktrackError(f"the track spans {t[-1]:.3g} s, under two swings of the "
                               f"{2 * np.pi / p0[3]:.3g} s it seems to have; track longer")
@@ -187,15 +219,21 @@ def fit_swing(t_s: NDArray, x: NDArray, sigma: float = 0.0) -> SwingLoop:
         start = (p0 if not on else
                  np.r_[list(fits[on[:-1]].values.values()),
                        1e-6 if on[-1] == "quadratic drag" else 0.0])
-        low = np.full(start.size, -np.inf)
+        low, high = np.full(start.size, -np.inf), np.full(start.size, np.inf)
         if "quadratic drag" in on:
             low[5 + on.index("quadratic drag")] = 0.0
+        if "large swing" in on and length is not None:
+            i = 5 + on.index("large swing")
+            low[i], high[i] = (1.0 / (16.0 * (f * length) ** 2)
+                               for f in (LENGTH_BAND, 1.0 / LENGTH_BAND))
+            start[i] = np.clip(start[i], low[i], high[i]) if start[i] else \
+                1.0 / (16.0 * length**2)
 
         def model(p: NDArray) -> NDArray:
             return _swing(t, p[:5], **{arguments[e]: v for e, v in zip(on, p[5:],
                                                                         strict=True)})[:, None]
 
-        values, residual, cov = solve_model(model, xv[:, None], start, (low, np.inf))
+        values, residual, cov = solve_model(model, xv[:, None], start, (low, high))
         w, sw = values[3], np.sqrt(max(cov[3, 3], 0.0))
         kappa = values[5 + on.index("quadratic drag")] if "quadratic drag" in on else 0.0
         fits[on] = SwingFit(combined(on) or "damped",
