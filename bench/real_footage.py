@@ -22,7 +22,10 @@ frame and the one a period later (the period taken from the peer's clicks)
 must agree, which gives each track's own scatter and our σ's coverage. Without the path
 it says so and exits 0.
 
-``--pendulum`` adds a student's pendulum clip (the swing and the string's length), and
+``--pendulum`` adds a student's pendulum clip (the swing and the string's length),
+``--capsule`` a second one (bartekpacia/pendulum: a wide-looking swing on 0.62 m, and
+one recording at four sizes, whose tracks must agree with each other, :func:`run_sizes`),
+and
 ``--yupi`` (or ``--rover``) two of yupi's clips: the rover wheel (a green LED on an arm
 turning about a red pivot: rest, then a circle, a greenness centroid made here;
 :func:`run_rover`) and a render of balls in a box (the blue ball against where it was
@@ -885,6 +888,71 @@ def run_pendulum(repo: Path, card: Scorecard, swing_clip: Swing = PENDULUM) -> N
     score_common(card, name, result, bob, track_s, decode_s)
 
 
+#: A shorter swing of the same capsule (bartekpacia/pendulum's ``film1``: 60 fps, 1535
+#: frames, 25.6 s, its string's length not given), which the author put up at four
+#: sizes made from one recording: what a track says of the scene is the same in each,
+#: and a difference between two sizes' tracks is an error of one or the other. The
+#: marker's place is given on the 550×310 copy and scaled to each.
+SIZES = ("film1_vga.mp4", "film1_sd.mp4", "film1_hd.mp4", "film1_fhd.mp4")
+SIZES_PLACE = (214, 123)
+
+
+def run_sizes(repo: Path, card: Scorecard) -> None:
+    """Track the capsule in each copy of :data:`SIZES`, in the smallest copy's px, and
+    print and score how far each pair of tracks lies apart against their σ (the
+    constant offset between them removed, as between a hand click and a centre)."""
+    tracks = {}
+    for name in SIZES:
+        video = _extracted_or_said(repo, name, "")
+        if video is None:
+            continue
+        source = open_frames(video, None)
+        kx, ky = source.width / 550.0, source.height / 310.0
+        marker = f"bob=210@{SIZES_PLACE[0] * kx:.0f},{SIZES_PLACE[1] * ky:.0f}"
+        result, bob, track_s, decode_s = timed_track(video, None, marker)
+        tab = result.tracks
+        ok = tab[f"{bob}_ok"].to_numpy(bool)
+        xy = tab[[f"{bob}_x_px", f"{bob}_y_px"]].to_numpy(float) / [kx, ky]
+        xy[~ok] = np.nan
+        sigma = tab[f"{bob}_sigma_px"].to_numpy(float)[:, None] / [[kx, ky]]
+        sideways = xy[ok] - xy[ok].mean(axis=0)
+        along = np.linalg.svd(sideways, full_matrices=False)[2][0]
+        loop = fit_swing(tab["t_s"].to_numpy(float)[ok], sideways @ along,
+                         float(np.median(sigma[ok])), arc_radius(xy[ok]))
+        print(f"\n{name} ({source.width}×{source.height}, {len(tab)} frames): `--marker "
+              f"{marker}` found in {ok.sum()} ({100 * ok.mean():.1f} %); σ median "
+              f"{np.median(sigma[ok, 0]):.3f}, {np.median(sigma[ok, 1]):.3f} px of 550×310 "
+              f"(x, y); the swing's period {loop.base.period_s:.5f} ± "
+              f"{loop.base.period_sigma_s:.5f} s; tracking {track_s:.2f} s, PyAV decoding to "
+              f"RGB alone {decode_s:.2f} s (ratio {decode_s / track_s:.2f})")
+        card.add(name, "found (the bob is always in view)", f"{100 * ok.mean():.0f} %",
+                 "≥ 95 %", ok.mean() >= 0.95)
+        score_common(card, name, result, bob, track_s, decode_s)
+        tracks[name] = (xy, sigma)
+    if len(tracks) < 2:
+        return
+    print("the same recording at its sizes, each pair's tracks apart (px of 550×310, the "
+          "constant offset removed) against their σ combined:")
+    inside = []
+    for (a, (xa, sa)), (b, (xb, sb)) in itertools.combinations(tracks.items(), 2):
+        d = xa - xb
+        both = np.all(np.isfinite(d), axis=1)
+        d = d[both] - d[both].mean(axis=0)
+        within = np.abs(d) <= np.hypot(sa[both], sb[both])
+        inside.append(within)
+        print(f"  {a} and {b}: RMS x {np.sqrt(np.mean(d[:, 0]**2)):.2f}, y "
+              f"{np.sqrt(np.mean(d[:, 1]**2)):.2f}; median |difference| "
+              f"{np.median(np.abs(d[:, 0])):.2f}, {np.median(np.abs(d[:, 1])):.2f} against "
+              f"σ combined {np.median(np.hypot(sa[both, 0], sb[both, 0])):.2f}, "
+              f"{np.median(np.hypot(sa[both, 1], sb[both, 1])):.2f}; ±1σ coverage "
+              f"{100 * within[:, 0].mean():.0f} %, {100 * within[:, 1].mean():.0f} %")
+    pooled = np.concatenate(inside)
+    for axis, label in enumerate("xy"):
+        covered = float(pooled[:, axis].mean())
+        card.add("film1 at 4 sizes", f"±1σ coverage of each pair's difference, {label}",
+                 f"{100 * covered:.0f} %", "50–90 %", 0.5 <= covered <= 0.9)
+
+
 #: A scaled rover wheel driven over sand on an arm that turns about a central pivot,
 #: filmed from above (700×480 H.264, 30 fps, 390 frames), from the public repository
 #: yupidevs/yupi_examples (``resources/videos/Viera2017.mp4``; Viera-López et al.,
@@ -1432,6 +1500,7 @@ def main() -> None:
         run_pendulum(args.pendulum, card)
     if args.capsule is not None and args.capsule.exists():
         run_pendulum(args.capsule, card, CAPSULE)
+        run_sizes(args.capsule, card)
     if args.rover is not None and args.rover.exists():
         run_rover(args.rover, args.yupi_python, card)
         run_balls(args.rover, args.yupi_python, card)
