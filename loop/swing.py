@@ -155,7 +155,8 @@ def _start(t: NDArray, x: NDArray) -> NDArray:
 #: string this many times longer and shorter than L: β = 1/(16 L²) is geometry, not a
 #: free slope. On a real clip (bartekpacia/pendulum) a free β took a 0.3 % rise of the
 #: rate over 30 s, as the swing narrowed by 15 %, for a swing on a 153 px string, where
-#: the bob's path is an arc of 600 px: a period 1.6 % short and g 3 % high.
+#: the bob's path is an arc of 650 px: its small-swing period came out 1.6 % short of
+#: the sinusoid's, and g 3 % above it.
 LENGTH_BAND = 1.5
 
 
