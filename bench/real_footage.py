@@ -23,7 +23,7 @@ must agree, which gives each track's own scatter and our σ's coverage. Without 
 it says so and exits 0.
 
 ``--pendulum`` adds a student's pendulum clip (the swing and the string's length),
-``--capsule`` a second one (bartekpacia/pendulum: a wide-looking swing on 0.62 m, and
+``--capsule`` a second one (bartekpacia/pendulum: a capsule swinging on 0.62 m, and
 one recording at four sizes, whose tracks must agree with each other, :func:`run_sizes`),
 and
 ``--yupi`` (or ``--rover``) two of yupi's clips: the rover wheel (a green LED on an arm
@@ -470,8 +470,8 @@ def add_clip_paths(ap: argparse.ArgumentParser) -> None:
                     help="a checkout of juangomez177/Pendulum_Oscillatory_Motion, or its "
                          "git directory")
     ap.add_argument("--capsule", type=Path,
-                    help="a checkout of bartekpacia/pendulum, or its git directory: a wide "
-                         "swing on 0.62 m")
+                    help="a checkout of bartekpacia/pendulum, or its git directory: a "
+                         "capsule swinging on 0.62 m, and one recording at four sizes")
     ap.add_argument("--yupi", "--rover", dest="rover", type=Path,
                     help="a checkout of yupidevs/yupi_examples, or its git directory: its "
                          "rover wheel and its balls in a box")
@@ -710,7 +710,8 @@ class Swing:
     length_m: float
     about: str
     #: On the capsule's 1844 fixes the sphere took 254 s and left 2.10 px, against the
-    #: tool's loop's 0.96; its blueness centroid is its lower half's, which turns with it.
+    #: tool's sinusoid's 1.27; its blueness centroid is its lower half's, which turns
+    #: with it.
     sphere: bool = True
     channel: int = 0
     half: int = 35
