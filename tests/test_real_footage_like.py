@@ -255,6 +255,21 @@ def test_inspect_puts_the_marker_that_moves_first_and_specks_last():
     assert len(alone) == 5 and big.sum() == 3 and big.iloc[:3].all()
 
 
+def test_inspect_puts_a_large_disc_that_moves_before_small_ones_and_a_large_still_one():
+    # A pendulum's bob filmed close (bartekpacia/pendulum's capsule, 50 px in radius at
+    # 1280×720) is larger than a marker is expected to be, which a hand or a sign is too:
+    # it was listed 5th, after the specks of its own contents. One that moves is not.
+    from cranktrack.tracker.survey import survey
+
+    blue, yellow, green = (40.0, 60.0, 200.0), (220.0, 200.0, 40.0), (40.0, 170.0, 60.0)
+    still = [(280.0, 60.0, 30.0, yellow), (60.0, 200.0, 6.0, green)]
+    first = draw([*still, (120.0, 110.0, 30.0, blue)], size=(360, 240), seed=1)
+    later = draw([*still, (132.0, 108.0, 30.0, blue)], size=(360, 240), seed=2)
+    table = survey(first, later=later)
+    order = [(round(r.x_px), round(r.y_px)) for r in table.itertuples()]
+    assert order[:3] == [(120, 110), (60, 200), (280, 60)], table
+
+
 def test_inspect_puts_a_ball_before_the_dark_cap_on_it_and_suggests_the_ball(tmp_path,
                                                                           capsys):
     import cv2
