@@ -920,8 +920,12 @@ def run_sizes(repo: Path, card: Scorecard) -> None:
         along = np.linalg.svd(sideways, full_matrices=False)[2][0]
         loop = fit_swing(tab["t_s"].to_numpy(float)[ok], sideways @ along,
                          float(np.median(sigma[ok])), arc_radius(xy[ok]))
+        rank, listed = (inspect_rank(video, None, 0, (xy[0, 0] * kx, xy[0, 1] * ky)) if ok[0]
+                        else (None, 0))
         print(f"\n{name} ({source.width}×{source.height}, {len(tab)} frames): `--marker "
-              f"{marker}` found in {ok.sum()} ({100 * ok.mean():.1f} %); σ median "
+              f"{marker}` found in {ok.sum()} ({100 * ok.mean():.1f} %); `inspect` at frame 0 "
+              f"lists the bob {'not at all' if rank is None else f'{rank}.'} of {listed}; "
+              "σ median "
               f"{np.median(sigma[ok, 0]):.3f}, {np.median(sigma[ok, 1]):.3f} px of 550×310 "
               f"(x, y); the swing's period {loop.base.period_s:.5f} ± "
               f"{loop.base.period_sigma_s:.5f} s; tracking {track_s:.2f} s, PyAV decoding to "
