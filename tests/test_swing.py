@@ -101,7 +101,8 @@ def test_a_rate_that_rises_for_another_cause_is_no_wide_swing_once_the_length_is
         shorter):
     # A real clip's swing (bartekpacia/pendulum) sped up by 0.3 % as it narrowed by 15 %;
     # a free β took that for a wide swing on a string a quarter of its arc's length, and
-    # g came out 3 % high. A swing of 0.1 rad whose string shortens does the same.
+    # g came out 3 % above the sinusoid's. A swing of 0.1 rad whose string shortens
+    # does the same.
     t, x = shortening_swing(0.1, 0.02, shorter)
     assert fit_swing(t, x, NOISE).accepted == "large swing"
     held = fit_swing(t, x, NOISE, L)

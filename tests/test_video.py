@@ -256,7 +256,7 @@ def test_b_frames_stored_with_decoding_order_times_get_display_order_times(
     assert any("decoding order" in p for p in src.problems) == pts_in_decoding_order
 
 
-def _mjpeg_avi(path, shown, rate: int = 15, codec: str = "mjpeg", first: int = 0):
+def _grey_clip(path, shown, rate: int = 15, codec: str = "mjpeg", first: int = 0):
     """An MJPEG AVI (or ``codec`` in ``path``'s container) at ``rate`` fps holding a grey
     picture at each frame slot of ``shown`` (the slots between list no picture of their
     own), the first stamped at slot ``first``."""
@@ -278,7 +278,7 @@ def test_an_avi_that_lists_repeated_frames_is_not_called_truncated(tmp_path):
     # AVI can list a frame slot without a picture (it repeats the one before): OpenCV's
     # sample tree.avi lists 444 frames over 29.6 s and holds 68 pictures.
     shown = [0, 1, 2, 5, 6, 7, 12, 20, 21, 29]
-    path = _mjpeg_avi(tmp_path / "sparse.avi", shown)
+    path = _grey_clip(tmp_path / "sparse.avi", shown)
     src = open_frames(path)
     t = [f.t_s for f in src.frames()]
     np.testing.assert_allclose(t, np.array(shown) / 15, atol=1e-3)
@@ -294,7 +294,7 @@ def test_an_avi_cut_short_is_called_truncated_though_its_pictures_fill_what_is_l
     # (79.5 s at 10 fps) and holds 194 pictures over a "duration" of 19.6 s. Its
     # pictures fill that duration, as a sparse AVI's do (the test above), but the
     # listed frames do not fit in it: it is truncated.
-    path = _mjpeg_avi(tmp_path / "whole.avi", range(60))
+    path = _grey_clip(tmp_path / "whole.avi", range(60))
     cut = tmp_path / "cut.avi"
     cut.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
     src = open_frames(cut)
@@ -309,7 +309,7 @@ def test_a_clip_trimmed_by_an_edit_list_is_not_called_truncated(tmp_path):
     # before its new start, stamped before 0, and an edit list that hides them: the
     # container lists them, FFmpeg drops them. A pendulum clip of bartekpacia/pendulum
     # lists 2057 and shows 1844, and was called "truncated or damaged".
-    path = _mjpeg_avi(tmp_path / "trimmed.mp4", range(60), 30, "libx264", first=-20)
+    path = _grey_clip(tmp_path / "trimmed.mp4", range(60), 30, "libx264", first=-20)
     src = open_frames(path)
     t = [f.t_s for f in src.frames()]
     assert src.expected_frames == 60 and len(t) == 40  # 20 hidden by the edit list
