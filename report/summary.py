@@ -143,6 +143,19 @@ def _swing_taken(swing: dict, done: str) -> str:
             + f", residual {final['rms']:.3g} {swing['unit']} RMS.")
 
 
+#: What a loop's section says where it took no effect (``loop.evidence.BIC_THRESHOLD``,
+#: not imported: that module loads statsmodels, which a report has no other use for).
+NOTHING_TAKEN = "No effect lowers the BIC by more than 20."
+
+
+def _loop_section(heading: str, summary: str, taken: str | None, details: str) -> list[str]:
+    """A report section for one of ``fit``'s loops (flight, pendulum, rotation): its
+    heading, the base model's line ``summary`` followed by what it ``taken`` (None:
+    nothing), and the link to its ``details`` file."""
+    return ["", heading, "", summary + (NOTHING_TAKEN if taken is None else taken),
+            f"Details in [{details}]({details})."]
+
+
 def write_report(run: str | os.PathLike) -> Path:
     """Write ``run/report.md`` (and ``kinematics.png``, or ``tracks.png`` in a run without
     kinematics) from what the run folder holds."""
@@ -223,43 +236,39 @@ def write_report(run: str | os.PathLike) -> Path:
     flight = folder.read_json(f"{FIT_DIR}/flight.json")
     if flight:
         base, done = flight["base"], flight["accepted"]
-        lines += ["", f"## Free flight of {flight['marker']} (`fit --model flight`)", "",
-                  f"Parabola: g = {base['g_mm_s2'] / 1e3:.4f} ± "
-                  f"{base['g_sigma_mm_s2'] / 1e3:.4f} m/s², residual {base['rms_mm']:.3g} mm "
-                  f"RMS over {flight['samples']} fixes. "
-                  + ("No effect lowers the BIC by more than 20." if done is None else
-                     f"Accepted: {done} (residual {flight['candidates'][done]['rms_mm']:.3g} "
-                     "mm)" + (f", alike: {', '.join(flight['look_alikes'])}"
-                              if flight["look_alikes"] else "") + "."),
-                  "Details in [fit/flight.json](fit/flight.json)."]
+        lines += _loop_section(
+            f"## Free flight of {flight['marker']} (`fit --model flight`)",
+            f"Parabola: g = {base['g_mm_s2'] / 1e3:.4f} ± {base['g_sigma_mm_s2'] / 1e3:.4f} "
+            f"m/s², residual {base['rms_mm']:.3g} mm RMS over {flight['samples']} fixes. ",
+            None if done is None else
+            f"Accepted: {done} (residual {flight['candidates'][done]['rms_mm']:.3g} mm)"
+            + (f", alike: {', '.join(flight['look_alikes'])}" if flight["look_alikes"] else "")
+            + ".", "fit/flight.json")
     swing = folder.read_json(f"{FIT_DIR}/swing.json")
     if swing:
         base, done = swing["base"], swing["accepted"]
         g = swing.get("g_mm_s2", {}).get("damped")
-        lines += ["", f"## Swing of {swing['marker']} (`fit --model pendulum`)", "",
-                  f"Damped sinusoid: period {base['period_s']:.5f} ± "
-                  f"{base['period_sigma_s']:.5f} s"
-                  + (f", g = {g[0] / 1e3:.4f} ± {g[1] / 1e3:.4f} m/s² with a string of "
-                     f"{swing['length_mm']:g} mm" if g else "")
-                  + f", residual {base['rms']:.3g} {swing['unit']} RMS over "
-                  f"{swing['samples']} samples. "
-                  + ("No effect lowers the BIC by more than 20." if done is None else
-                     _swing_taken(swing, done)),
-                  "Details in [fit/swing.json](fit/swing.json)."]
+        lines += _loop_section(
+            f"## Swing of {swing['marker']} (`fit --model pendulum`)",
+            f"Damped sinusoid: period {base['period_s']:.5f} ± {base['period_sigma_s']:.5f} s"
+            + (f", g = {g[0] / 1e3:.4f} ± {g[1] / 1e3:.4f} m/s² with a string of "
+               f"{swing['length_mm']:g} mm" if g else "")
+            + f", residual {base['rms']:.3g} {swing['unit']} RMS over {swing['samples']} "
+            "samples. ",
+            None if done is None else _swing_taken(swing, done), "fit/swing.json")
     turn = folder.read_json(f"{FIT_DIR}/rotation.json")
     if turn:
         base, done = turn["base"], turn["accepted"]
-        lines += ["", f"## Turn of {turn['marker']} (`fit --model rotation`)", "",
-                  f"Steady turn on a circle: ω = {abs(base['omega_rad_s']):.5g} ± "
-                  f"{base['omega_sigma_rad_s']:.2g} rad/s at the track's middle, residual "
-                  f"{base['rms']:.3g} {turn['unit']} RMS per axis over {turn['samples']} "
-                  "fixes. "
-                  + ("No effect lowers the BIC by more than 20." if done is None else
-                     f"Accepted, one at a time: {done}; then ω = "
-                     f"{abs(turn['candidates'][done]['omega_rad_s']):.5g} ± "
-                     f"{turn['candidates'][done]['omega_sigma_rad_s']:.2g} rad/s, residual "
-                     f"{turn['candidates'][done]['rms']:.3g} {turn['unit']}."),
-                  "Details in [fit/rotation.json](fit/rotation.json)."]
+        lines += _loop_section(
+            f"## Turn of {turn['marker']} (`fit --model rotation`)",
+            f"Steady turn on a circle: ω = {abs(base['omega_rad_s']):.5g} ± "
+            f"{base['omega_sigma_rad_s']:.2g} rad/s at the track's middle, residual "
+            f"{base['rms']:.3g} {turn['unit']} RMS per axis over {turn['samples']} fixes. ",
+            None if done is None else
+            f"Accepted, one at a time: {done}; then ω = "
+            f"{abs(turn['candidates'][done]['omega_rad_s']):.5g} ± "
+            f"{turn['candidates'][done]['omega_sigma_rad_s']:.2g} rad/s, residual "
+            f"{turn['candidates'][done]['rms']:.3g} {turn['unit']}.", "fit/rotation.json")
     fit = folder.read_json(f"{FIT_DIR}/{FIT_REPORT_JSON}")
     if fit:
         effects = ", ".join(fit["effects"]) or "none"
