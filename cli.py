@@ -282,8 +282,8 @@ def cmd_check(args: argparse.Namespace) -> int:
     with _progress("check") as bar:
         for k, seed in enumerate([None, *range(args.patterns)]):
             source = open_frames(Path(args.video), fps=args.fps)
-            if source.expected_frames and span is None:  # with a span, unknown
-                bar.total = source.expected_frames * (args.patterns + 1)
+            if source.shown_frames and span is None:  # with a span, unknown
+                bar.total = source.shown_frames * (args.patterns + 1)
             bar.set_description_str("check: as is" if seed is None else
                                     f"check: pattern {k} of {args.patterns}")
             results.append(track(source if seed is None else Patterned(source, seed), specs,

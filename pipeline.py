@@ -208,7 +208,7 @@ def track_run(
     ``resume`` continues an interrupted run in ``out_dir`` (Ctrl-C leaves
     ``tracks.csv`` up to the last finished frame and the tracker's state in
     ``.tracker_state.pkl``; the resumed result equals an uninterrupted run).
-    ``on_start(expected_frames)`` and ``on_frame(index)`` report progress, and
+    ``on_start(shown_frames)`` and ``on_frame(index)`` report progress, and
     ``on_stage(name)`` each step after the frames (``"kinematics"``, ``"report"``).
     ``overwrite`` replaces the run of another video that ``out_dir`` holds (without it,
     such a folder is refused). ``table_format="parquet"`` also writes the tracks and
@@ -389,7 +389,7 @@ def _track_into(folder: Path, source: FrameSource, video: str | os.PathLike,
     """:func:`track_run`'s work, in a folder it holds; ``foreshortening``: how the calibration's
     plane foreshortens a printed disc (:func:`_foreshortening`)."""
     if on_start:
-        on_start(source.expected_frames)
+        on_start(source.shown_frames)
     state_path = folder / TRACKER_STATE
     saved = _load_state(state_path, video, roi) if resume else None
 

@@ -313,6 +313,7 @@ def test_a_clip_trimmed_by_an_edit_list_is_not_called_truncated(tmp_path):
     src = open_frames(path)
     t = [f.t_s for f in src.frames()]
     assert src.expected_frames == 60 and len(t) == 40  # 20 hidden by the edit list
+    assert src.shown_frames == 40  # what a progress bar counts to
     np.testing.assert_allclose(t, np.arange(40) / 30, atol=1e-3)
     assert src.problems == []
 

@@ -11,6 +11,7 @@ frames) is summarised by :func:`timing_report`.
 from __future__ import annotations
 
 import heapq
+import math
 import os
 import queue
 import threading
@@ -450,6 +451,19 @@ class FrameSource:
         """Can the pictures hold colour at all? Not where they are stored as brightness
         alone (a monochrome camera's ``gray``, ``gray16le``, …)."""
         return not self.pixel_format.startswith(GREY_FORMATS)
+
+    @property
+    def shown_frames(self) -> int | None:
+        """Frames players show, as far as the container says: its listed count, or
+        fewer where an edit list hides pictures it still lists (:meth:`_outside_the_edit`:
+        the listed frames then outrun the duration at the stated rate by more than a
+        rate's rounding). For a progress bar's total; None if the count is unknown."""
+        if not self.expected_frames or not self.duration_s or not self.nominal_fps:
+            return self.expected_frames
+        fit = self.duration_s * self.nominal_fps
+        if self.expected_frames <= 1.01 * fit + 2:
+            return self.expected_frames
+        return math.ceil(fit - 1e-6)
 
     @property
     def clock_start_s(self) -> float:
