@@ -358,7 +358,8 @@ def _least_median_circle(points: NDArray) -> NDArray[np.float64]:
     return out
 
 
-def fit_circle(points: NDArray, iterations: int = 20, start: NDArray | None = None
+def fit_circle(points: NDArray, iterations: int = 20, start: NDArray | None = None,
+               hold_radius: bool = False
                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Robust circle through rim points: ((cx, cy, R), 3×3 covariance, weights).
 
@@ -368,14 +369,17 @@ def fit_circle(points: NDArray, iterations: int = 20, start: NDArray | None = No
     is given: a circle already fitted to nearly the same rim. Gauss–Newton
     steps on the geometric distance, each reweighted by Tukey's biweight of the
     residual over 1.4826·MAD (at least :data:`MIN_SCALE_PX`), follow. The
-    covariance is s²·(JᵀWJ)⁻¹ with s² the weighted residual variance.
+    covariance is s²·(JᵀWJ)⁻¹ with s² the weighted residual variance. With
+    ``hold_radius`` the radius stays at ``start``'s and only the centre is fitted (its
+    variance and covariance with the radius are then 0).
     """
     given = np.empty(0) if start is None else np.asarray(start, np.float64)
-    return _fit_circle(np.ascontiguousarray(points, np.float64), given, iterations)
+    return _fit_circle(np.ascontiguousarray(points, np.float64), given, iterations,
+                       hold_radius and start is not None)
 
 
 @njit(cache=True, nogil=True)
-def _fit_circle(points: NDArray, start: NDArray, iterations: int
+def _fit_circle(points: NDArray, start: NDArray, iterations: int, hold: bool
                 ) -> tuple[NDArray, NDArray, NDArray]:
     """:func:`fit_circle`, with ``start`` empty for the least-median start. Compiled:
     in NumPy the covariance's small array steps cost as much as the fit."""
@@ -383,7 +387,7 @@ def _fit_circle(points: NDArray, start: NDArray, iterations: int
     y = np.ascontiguousarray(points[:, 1])
     if start.size == 0:
         start = _least_median_circle(points)
-    p, wts = _reweighted_circle(x, y, start, iterations)
+    p, wts = _reweighted_circle(x, y, start, iterations, hold)
     A = np.zeros((3, 3))
     j = np.empty(3)
     kept, ss = 0.0, 0.0
@@ -397,20 +401,26 @@ def _fit_circle(points: NDArray, start: NDArray, iterations: int
                 A[a, b] += j[a] * wts[i] * j[b]
         kept += wts[i]
         ss += wts[i] * res * res
-    s2 = ss / max(kept - 3.0, 1.0)
+    s2 = ss / max(kept - (2.0 if hold else 3.0), 1.0)
+    if hold:
+        A[2, 0] = A[0, 2] = A[2, 1] = A[1, 2] = 0.0
+        A[2, 2] = 1.0
     try:
         cov = s2 * np.linalg.inv(A)
     except Exception:  # a singular system: numba catches no narrower class
         cov = np.full((3, 3), np.nan)
+    if hold:
+        cov[2, 2] = 0.0
     return p, cov, wts
 
 
 @njit(cache=True, nogil=True)
-def _reweighted_circle(x: NDArray, y: NDArray, p0: NDArray, iterations: int
+def _reweighted_circle(x: NDArray, y: NDArray, p0: NDArray, iterations: int, hold: bool
                        ) -> tuple[NDArray, NDArray]:
     """The Gauss–Newton / Tukey-biweight iterations of :func:`fit_circle` from
-    ``p0`` (cx, cy, R): the circle and the last weights. Compiled: two medians and a
-    solve per iteration, a few hundred times a frame on a clip full of false blobs."""
+    ``p0`` (cx, cy, R), R held with ``hold``: the circle and the last weights. Compiled:
+    two medians and a solve per iteration, a few hundred times a frame on a clip full
+    of false blobs."""
     n = len(x)
     p = p0.copy()
     wts = np.ones(n)
@@ -432,6 +442,9 @@ def _reweighted_circle(x: NDArray, y: NDArray, p0: NDArray, iterations: int
                 g[a] -= J[i, a] * wts[i] * res[i]
                 for b in range(3):
                     A[a, b] += J[i, a] * wts[i] * J[i, b]
+        if hold:
+            A[2, 0] = A[0, 2] = A[2, 1] = A[1, 2] = g[2] = 0.0
+            A[2, 2] = 1.0
         try:
             step = np.linalg.solve(A, g)
         except Exception:  # a singular system: numba catches no narrower class
@@ -444,8 +457,20 @@ def _reweighted_circle(x: NDArray, y: NDArray, p0: NDArray, iterations: int
     return p, wts
 
 
+#: A followed ball's centre is taken with its radius held at its learned one (the median
+#: of its first fits, :meth:`.marker_state.MarkerState.remember`) while the free fit's
+#: radius lies within this factor of it (:func:`fit_outline`). A rim that is
+#: no full circle lets a free fit trade its radius for its centre: the blue lower half of
+#: bartekpacia/pendulum's capsule, fitted free at 75–100 px in radius on its 1920×1080
+#: copy, moved its centre 1.2–1.5 px up for each px the radius grew, and the four copies
+#: of that recording differed by 2.4–3.6 px RMS in y (in 550×310 px); held, 1.4–2.2.
+#: Beyond the band the marker's outline has changed (Tracker's diabolo, turning, fitted
+#: at 0.6 of its learned radius in a third of its frames), and the free fit is taken.
+HOLD_BAND = 1.3
+
+
 def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
-                radius: float, passes: int = 2) -> Centre:
+                radius: float, passes: int = 2, hold: float | None = None) -> Centre:
     """The circle through a marker's rim in a coverage patch (see the module).
 
     Rays are cast from ``guess`` (image px), then again from the fitted
@@ -454,6 +479,10 @@ def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float]
     :data:`MIN_POINTS` rim points (or :data:`MIN_FRACTION` of the rays) keep
     weight, when the centre moved more than ``radius`` or the fitted radius is
     outside 0.3–3× ``radius``.
+    With ``hold`` (px: a followed ball's learned radius) the centre is that of the
+    circle of that radius through the same rim points, where the free fit's radius lies
+    within :data:`HOLD_BAND` of it and that circle keeps as many points; the returned
+    radius is the free fit's either way, so that a marker coming nearer is seen to grow.
     The returned gain is the median coverage within half the fitted radius
     (≈ 1 for a whole flat marker of the learned colour); ``rms_residual`` is
     NaN, since a rim residual (px) is not comparable to a disc fit's (α).
@@ -478,13 +507,22 @@ def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float]
         if math.hypot(p[0] - cast[0], p[1] - cast[1]) < RECAST_PX:
             break
         cast = (float(p[0]), float(p[1]))
+    free_r = p[2]
+    if hold is not None and hold > 0 \
+            and abs(math.log(max(free_r, 1e-9) / hold)) <= math.log(HOLD_BAND):
+        held, held_cov, wts = fit_circle(pts, start=np.array([p[0], p[1], hold]),
+                                         hold_radius=True)
+        if int((wts > 0).sum()) >= max(MIN_POINTS, MIN_FRACTION * rays) \
+                and np.all(np.isfinite(held)):
+            p, cov = held, held_cov
     var = 0.5 * (cov[0, 0] + cov[1, 1])
     moved = math.hypot(p[0] - guess[0], p[1] - guess[1])
-    if not (np.isfinite(var) and var > 0 and moved < radius and 0.3 * radius < p[2] < 3 * radius):
+    if not (np.isfinite(var) and var > 0 and moved < radius
+            and 0.3 * radius < free_r < 3 * radius):
         return failed
     gain = _quantile_within(alpha, p[0] - x0, p[1] - y0, 0.5 * p[2], 0.5, 1)
-    return Centre(float(p[0]), float(p[1]), float(math.sqrt(var)), float(p[2]), True,
-                  float("nan"), gain, (float(p[0]), float(p[1]), float(p[2]), 0.5, 1.0, 0.0),
+    return Centre(float(p[0]), float(p[1]), float(math.sqrt(var)), float(free_r), True,
+                  float("nan"), gain, (float(p[0]), float(p[1]), float(free_r), 0.5, 1.0, 0.0),
                   rim=True)
 
 

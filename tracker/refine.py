@@ -128,8 +128,9 @@ def refine(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, f
                               wire, hold_shape, wire_line, stretch)
     if rim is True and init is not None:
         # Following a ball: its rim has a coverage of its own, so the disc fit's is
-        # not made at all.
-        return _rim(image, guess, radius, marker, luminance)
+        # not made at all; its centre is taken at its learned radius, ``radius``
+        # (:data:`.outline.HOLD_BAND`).
+        return _rim(image, guess, radius, marker, luminance, hold=radius)
     unit = _unit_px(image)
     patch, x0, y0 = patch_around(image, guess[0], guess[1], radius + 9)
     alpha, seen = local_coverage(patch, x0, y0, guess, radius, marker, luminance, unit,
@@ -407,11 +408,13 @@ RIM_RECENTRE_PX = 2.0
 
 
 def _rim(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, float], radius: float,
-         marker: NDArray | None, luminance: bool) -> tuple[Centre, NDArray]:
-    """The circle through the rim (:func:`.outline.fit_outline`) on the coverage
-    against one background (:func:`.outline.rim_coverage`), taken again around the
-    fitted centre while it is more than :data:`RIM_RECENTRE_PX` from where the
-    background ring was laid; and the colour seen in the middle around ``guess``."""
+         marker: NDArray | None, luminance: bool, hold: float | None = None
+         ) -> tuple[Centre, NDArray]:
+    """The circle through the rim (:func:`.outline.fit_outline`, its centre taken at the
+    radius ``hold``, px, if given) on the coverage against one background
+    (:func:`.outline.rim_coverage`), taken again around the fitted centre while it is
+    more than :data:`RIM_RECENTRE_PX` from where the background ring was laid; and the
+    colour seen in the middle around ``guess``."""
     fit = Centre(np.nan, np.nan, np.nan, radius, False)
     seen = None
     for _ in range(4):
@@ -419,7 +422,7 @@ def _rim(image: Frame | BinnedFrame | NDArray[np.uint8], guess: tuple[float, flo
         alpha, seen_here = rim_coverage(patch, x0, y0, guess, radius, marker, luminance,
                                         _unit_px(image))
         seen = seen_here if seen is None else seen
-        fit = fit_outline(alpha, x0, y0, guess, radius)
+        fit = fit_outline(alpha, x0, y0, guess, radius, hold=hold)
         if not fit.ok or np.hypot(fit.x - guess[0], fit.y - guess[1]) <= RIM_RECENTRE_PX:
             break
         guess = (fit.x, fit.y)
