@@ -155,8 +155,9 @@ def _start(t: NDArray, x: NDArray) -> NDArray:
 #: string this many times longer and shorter than L: β = 1/(16 L²) is geometry, not a
 #: free slope. On a real clip (bartekpacia/pendulum) a free β took a 0.3 % rise of the
 #: rate over 30 s, as the swing narrowed by 15 %, for a swing on a 153 px string, where
-#: the bob's path is an arc of 650 px: its small-swing period came out 1.6 % short of
-#: the sinusoid's, and g 3 % above it.
+#: the bob's path is an arc of 650 px (774 px on today's tracks, the rim's circle held
+#: at its learned radius): its small-swing period came out 1.6 % short of the
+#: sinusoid's, and g 3 % above it.
 LENGTH_BAND = 1.5
 
 
