@@ -467,6 +467,11 @@ def _reweighted_circle(x: NDArray, y: NDArray, p0: NDArray, iterations: int, hol
 #: Beyond the band the marker's outline has changed (Tracker's diabolo, turning, fitted
 #: at 0.6 of its learned radius in a third of its frames), and the free fit is taken.
 HOLD_BAND = 1.3
+#: ...and while the held circle's centre lies within this many times the two radii's
+#: difference (plus 3σ) of the free one's: a circle that keeps to an arc as its radius
+#: changes by Δr moves its centre by about Δr (1.1–1.5 Δr on the capsule). Held at a
+#: radius 10 % short, a drawn half disc's circle left its rim for one 10–16 px off.
+HOLD_SHIFT = 2.0
 
 
 def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
@@ -481,8 +486,10 @@ def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float]
     outside 0.3–3× ``radius``.
     With ``hold`` (px: a followed ball's learned radius) the centre is that of the
     circle of that radius through the same rim points, where the free fit's radius lies
-    within :data:`HOLD_BAND` of it and that circle keeps as many points; the returned
-    radius is the free fit's either way, so that a marker coming nearer is seen to grow.
+    within :data:`HOLD_BAND` of it, that circle keeps as many points and its centre
+    lies within :data:`HOLD_SHIFT` of the free one's. Its σ is then at least the free
+    centre's distance from it, axis by axis. The returned radius is the free fit's
+    either way, so that a marker coming nearer is seen to grow.
     The returned gain is the median coverage within half the fitted radius
     (≈ 1 for a whole flat marker of the learned colour); ``rms_residual`` is
     NaN, since a rim residual (px) is not comparable to a disc fit's (α).
@@ -512,9 +519,16 @@ def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float]
             and abs(math.log(max(free_r, 1e-9) / hold)) <= math.log(HOLD_BAND):
         held, held_cov, wts = fit_circle(pts, start=np.array([p[0], p[1], hold]),
                                          hold_radius=True)
+        dx, dy = held[0] - p[0], held[1] - p[1]
+        free_sigma = math.sqrt(max(0.5 * (cov[0, 0] + cov[1, 1]), 0.0))
         if int((wts > 0).sum()) >= max(MIN_POINTS, MIN_FRACTION * rays) \
-                and np.all(np.isfinite(held)):
-            p, cov = held, held_cov
+                and np.all(np.isfinite(held)) and math.hypot(dx, dy) \
+                <= HOLD_SHIFT * abs(free_r - hold) + 3.0 * free_sigma:
+            # Its σ owns up to what holding the radius assumes: not below the free
+            # circle's distance from it, axis by axis.
+            p, cov = held, held_cov.copy()
+            cov[0, 0] += dx * dx
+            cov[1, 1] += dy * dy
     var = 0.5 * (cov[0, 0] + cov[1, 1])
     moved = math.hypot(p[0] - guess[0], p[1] - guess[1])
     if not (np.isfinite(var) and var > 0 and moved < radius
