@@ -471,7 +471,7 @@ HOLD_BAND = 1.3
 #: difference (plus 3σ) of the free one's: a circle that keeps to an arc as its radius
 #: changes by Δr moves its centre by about Δr (1.1–1.5 Δr on the capsule). Held at a
 #: radius 10 % short, a drawn half disc's circle left its rim for one 10–16 px off.
-HOLD_SHIFT = 2.0
+HOLD_SHIFT = 4.0
 
 
 def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float],
@@ -486,10 +486,8 @@ def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float]
     outside 0.3–3× ``radius``.
     With ``hold`` (px: a followed ball's learned radius) the centre is that of the
     circle of that radius through the same rim points, where the free fit's radius lies
-    within :data:`HOLD_BAND` of it, that circle keeps as many points and its centre
-    lies within :data:`HOLD_SHIFT` of the free one's. Its σ is then at least the free
-    centre's distance from it, axis by axis. The returned radius is the free fit's
-    either way, so that a marker coming nearer is seen to grow.
+    within :data:`HOLD_BAND` of it and that circle keeps as many points; the returned
+    radius is the free fit's either way, so that a marker coming nearer is seen to grow.
     The returned gain is the median coverage within half the fitted radius
     (≈ 1 for a whole flat marker of the learned colour); ``rms_residual`` is
     NaN, since a rim residual (px) is not comparable to a disc fit's (α).
