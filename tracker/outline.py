@@ -463,9 +463,10 @@ def _reweighted_circle(x: NDArray, y: NDArray, p0: NDArray, iterations: int, hol
 #: no full circle lets a free fit trade its radius for its centre: the blue lower half of
 #: bartekpacia/pendulum's capsule, fitted free at 75–100 px in radius on its 1920×1080
 #: copy, moved its centre 1.2–1.5 px up for each px the radius grew, and the four copies
-#: of that recording differed by 2.4–3.6 px RMS in y (in 550×310 px); held, 1.4–2.2.
+#: of that recording differed by 2.4–3.6 px RMS in y (in 550×310 px); held, 1.4–2.3.
 #: Beyond the band the marker's outline has changed (Tracker's diabolo, turning, fitted
-#: at 0.6 of its learned radius in a third of its frames), and the free fit is taken.
+#: under 0.7 of its learned radius in a quarter of its frames), and the free fit is
+#: taken.
 HOLD_BAND = 1.3
 #: ...and while the held circle's centre lies within this many times the two radii's
 #: difference (plus 3σ) of the free one's: a circle that keeps to an arc as its radius
@@ -529,7 +530,7 @@ def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float]
                 <= HOLD_SHIFT * abs(free_r - hold) + 3.0 * free_sigma:
             # Its σ owns up to what holding the radius assumes: not below the free
             # circle's distance from it, axis by axis.
-            p, cov = held, held_cov.copy()
+            p, cov = held, held_cov
             cov[0, 0] += dx * dx
             cov[1, 1] += dy * dy
     var = 0.5 * (cov[0, 0] + cov[1, 1])
