@@ -709,8 +709,8 @@ class Swing:
     marker: str
     length_m: float
     about: str
-    #: On the capsule's 1844 fixes the sphere took 254 s and left 2.10 px, against the
-    #: tool's sinusoid's 1.27; its blueness centroid is its lower half's, which turns
+    #: On the capsule's 1844 fixes (stop 70) the sphere took 254 s and left 2.10 px,
+    #: against the tool's sinusoid's 1.27; its blueness centroid is its lower half's, which turns
     #: with it.
     sphere: bool = True
     channel: int = 0
@@ -727,7 +727,8 @@ PENDULUM = Swing("pendulum.mp4", "bob=red", 1.7, "a red bauble on 1.7 m")
 #: before a beige wall (550×310 H.264, 60 fps, 30.7 s; the phone's trim hides 3.5 s
 #: before it), from the public repository bartekpacia/pendulum, whose README gives the
 #: length for its clips and whose own tool times the swing by frame differences. It
-#: swings 82 px either way on an arc of 650 px (7°), as the README asks (under 10°);
+#: swings 82 px either way on an arc of 774 px (650 px before stop 71 held the rim's
+#: circle at its learned radius), about 6°, as the README asks (under 10°);
 #: its rate rises by 0.3 % over the clip as the swing narrows by 15 %, which a free
 #: wide-swing β took for a swing on a 153 px string (:data:`.loop.swing.LENGTH_BAND`).
 CAPSULE = Swing("film2_vga.mp4", "bob=210@345,117", 0.62, "a blue capsule on 0.62 m",
@@ -847,6 +848,7 @@ def loop_coverage(sigma: NDArray, tool: SwingLoop) -> None:
     print(f"  ±1σ coverage of our σ (median {np.median(sigma):.3f} px) against the loop's "
           f"own fit along the swing: {100 * covered:.0f} % (not scored: not a truth written "
           f"apart); residual lag-1 correlation {r1:+.2f}")
+
 
 def run_pendulum(repo: Path, card: Scorecard, swing_clip: Swing = PENDULUM) -> None:
     """Track the bob of ``swing_clip``, fit the swing of :mod:`pendulum`, print its

@@ -403,8 +403,7 @@ def _fit_circle(points: NDArray, start: NDArray, iterations: int, hold: bool
         ss += wts[i] * res * res
     s2 = ss / max(kept - (2.0 if hold else 3.0), 1.0)
     if hold:
-        A[2, 0] = A[0, 2] = A[2, 1] = A[1, 2] = 0.0
-        A[2, 2] = 1.0
+        _radius_held(A)
     try:
         cov = s2 * np.linalg.inv(A)
     except Exception:  # a singular system: numba catches no narrower class
@@ -412,6 +411,14 @@ def _fit_circle(points: NDArray, start: NDArray, iterations: int, hold: bool
     if hold:
         cov[2, 2] = 0.0
     return p, cov, wts
+
+
+@njit(cache=True, nogil=True)
+def _radius_held(A: NDArray) -> None:
+    """Make the normal matrix ``A`` (cx, cy, R) leave R where it is: its row and column
+    cut from the centre's, and its own diagonal 1 (a step of 0 on a gradient of 0)."""
+    A[2, 0] = A[0, 2] = A[2, 1] = A[1, 2] = 0.0
+    A[2, 2] = 1.0
 
 
 @njit(cache=True, nogil=True)
@@ -443,8 +450,8 @@ def _reweighted_circle(x: NDArray, y: NDArray, p0: NDArray, iterations: int, hol
                 for b in range(3):
                     A[a, b] += J[i, a] * wts[i] * J[i, b]
         if hold:
-            A[2, 0] = A[0, 2] = A[2, 1] = A[1, 2] = g[2] = 0.0
-            A[2, 2] = 1.0
+            _radius_held(A)
+            g[2] = 0.0
         try:
             step = np.linalg.solve(A, g)
         except Exception:  # a singular system: numba catches no narrower class
@@ -521,11 +528,11 @@ def fit_outline(alpha: NDArray, x0: float, y0: float, guess: tuple[float, float]
     free_r = p[2]
     if hold is not None and hold > 0 \
             and abs(math.log(max(free_r, 1e-9) / hold)) <= math.log(HOLD_BAND):
-        held, held_cov, wts = fit_circle(pts, start=np.array([p[0], p[1], hold]),
-                                         hold_radius=True)
+        held, held_cov, held_wts = fit_circle(pts, start=np.array([p[0], p[1], hold]),
+                                              hold_radius=True)
         dx, dy = held[0] - p[0], held[1] - p[1]
         free_sigma = math.sqrt(max(0.5 * (cov[0, 0] + cov[1, 1]), 0.0))
-        if int((wts > 0).sum()) >= max(MIN_POINTS, MIN_FRACTION * rays) \
+        if int((held_wts > 0).sum()) >= max(MIN_POINTS, MIN_FRACTION * rays) \
                 and np.all(np.isfinite(held)) and math.hypot(dx, dy) \
                 <= HOLD_SHIFT * abs(free_r - hold) + 3.0 * free_sigma:
             # Its σ owns up to what holding the radius assumes: not below the free
